@@ -1,0 +1,35 @@
+# The two commands of the README. Each creates its own virtual environment (.venv) on first use
+# and re-installs when pyproject.toml changes.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test lint typecheck bench clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+## run: the main job
+run: $(STAMP)
+	$(BIN)/gfc validate examples/hammer_place.json
+	$(BIN)/gfc bench latency --json docs/bench/latency.json
+
+## test: lint, type-check and the whole test suite (slow tests included)
+test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/mypy gfc skill_store service
+	$(BIN)/pytest -n 2 --dist loadgroup
+
+lint: $(STAMP)
+	$(BIN)/ruff check . && $(BIN)/ruff format --check .
+
+typecheck: $(STAMP)
+	$(BIN)/mypy gfc skill_store service
+
+clean:
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache

@@ -1,0 +1,134 @@
+"""The entity catalogue: robot state layout and the object kinds a plan may name.
+
+This is the single source of truth for object geometry that the plan compiler, the constraint
+energies and the simulator share. Sizes are in metres, in the object's own frame, whose origin
+is the centre of the object's bottom face (so an object resting on the table has z = table top).
+Named frames (``hammer.head``) are poses in the object frame, ``[x, y, z, qx, qy, qz, qw]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from gfc.geometry import POSE9_DIM
+
+# A robot node is its end-effector pose (9-vector, in the robot's base frame inside a skill model,
+# in the world frame inside the factor graph) plus the gripper opening in metres.
+ROBOT_STATE_DIM = POSE9_DIM + 1
+OBJECT_STATE_DIM = POSE9_DIM
+GRIPPER_OPEN = 0.08
+
+# Panda end effector (link 11, panda_grasptarget) at the home configuration, in the base frame:
+# pointing down, fingers along the base y axis. The simulator checks this against forward
+# kinematics (tests/sim), so a plan that does not state its robots' poses starts from here.
+HOME_EE_POSE_IN_BASE = (0.45, 0.0, 0.45, 1.0, 0.0, 0.0, 0.0)
+
+IDENTITY_FRAME = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class ObjectKind:
+    """Geometry and affordances of one kind of object."""
+
+    name: str
+    description: str
+    half_extents: tuple[float, float, float]  # bounding box half sizes in the object frame
+    frames: dict[str, tuple[float, ...]] = field(default_factory=dict)  # name -> pose7
+    inner_half_extents: tuple[float, float, float] | None = None  # open region of a container
+    graspable: bool = True
+
+    @property
+    def is_container(self) -> bool:
+        return self.inner_half_extents is not None
+
+    def frame(self, name: str | None) -> tuple[float, ...]:
+        """The pose of a named frame in the object frame; ``None`` is the object frame."""
+        if name is None or name == "base":
+            return IDENTITY_FRAME
+        if name not in self.frames:
+            known = ", ".join(sorted(["base", *self.frames])) or "base"
+            raise KeyError(f"object kind {self.name!r} has no frame {name!r} (known: {known})")
+        return self.frames[name]
+
+
+def _kinds(*kinds: ObjectKind) -> dict[str, ObjectKind]:
+    return {k.name: k for k in kinds}
+
+
+OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
+    ObjectKind(
+        "hammer",
+        "handle (x axis, 0.26 m) with a head at +x; grasp the handle to strike",
+        half_extents=(0.15, 0.05, 0.0175),
+        frames={
+            "head": (0.13, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
+            "handle": (-0.05, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
+            "handle_end": (-0.13, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
+        },
+    ),
+    ObjectKind(
+        "nail",
+        "a stake standing upright, 0.08 m tall",
+        half_extents=(0.012, 0.012, 0.04),
+        frames={"top": (0.0, 0.0, 0.08, 0.0, 0.0, 0.0, 1.0)},
+    ),
+    ObjectKind("cube", "a 4 cm cube", half_extents=(0.02, 0.02, 0.02)),
+    ObjectKind("block", "a 5 cm block for pushing and packing", half_extents=(0.025, 0.025, 0.025)),
+    ObjectKind(
+        "lid",
+        "a flat lid with a knob on top",
+        half_extents=(0.11, 0.11, 0.02),
+        frames={"knob": (0.0, 0.0, 0.03, 0.0, 0.0, 0.0, 1.0)},
+    ),
+    ObjectKind(
+        "box",
+        "an open box with thin walls",
+        half_extents=(0.11, 0.11, 0.05),
+        inner_half_extents=(0.1, 0.1, 0.05),
+        graspable=False,
+    ),
+    ObjectKind(
+        "mug",
+        "a narrow mug opening along +z, handle at -x",
+        half_extents=(0.045, 0.045, 0.05),
+        frames={"rim": (0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 1.0)},
+        inner_half_extents=(0.035, 0.035, 0.05),
+    ),
+    ObjectKind(
+        "cup",
+        "a wide cup opening along +z, no handle",
+        half_extents=(0.055, 0.055, 0.04),
+        frames={"rim": (0.0, 0.0, 0.08, 0.0, 0.0, 0.0, 1.0)},
+        inner_half_extents=(0.05, 0.05, 0.04),
+    ),
+    ObjectKind(
+        "pot",
+        "a pot with two handles along +y and -y",
+        half_extents=(0.12, 0.2, 0.06),
+        frames={
+            "handle_left": (0.0, 0.17, 0.1, 0.0, 0.0, 0.0, 1.0),
+            "handle_right": (0.0, -0.17, 0.1, 0.0, 0.0, 0.0, 1.0),
+        },
+        inner_half_extents=(0.1, 0.1, 0.06),
+    ),
+    ObjectKind(
+        "hook",
+        "an L-shaped tool: a long shaft along x and a short hook along +y at its far end",
+        half_extents=(0.2, 0.06, 0.015),
+        frames={"tip": (0.2, 0.1, 0.015, 0.0, 0.0, 0.0, 1.0)},
+    ),
+    ObjectKind(
+        "rack",
+        "a table-mounted bar on two legs; objects can be pushed underneath",
+        half_extents=(0.05, 0.25, 0.06),
+        graspable=False,
+    ),
+)
+
+
+def object_kind(name: str) -> ObjectKind:
+    try:
+        return OBJECT_KINDS[name]
+    except KeyError:
+        known = ", ".join(sorted(OBJECT_KINDS))
+        raise KeyError(f"unknown object kind {name!r} (known: {known})") from None

@@ -1,0 +1,513 @@
+"""Compile a plan request into a spatial-temporal factor graph, or report every problem in it.
+
+Each skeleton step reads the latest version of every entity it names and writes a new version
+of each entity it changes. Steps sharing a ``group`` form one *stage*: they all read the state
+before the stage and their effects appear together after it; an entity that several steps of a
+stage change (a pot lifted by two arms) gets one new version shared by their factors.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+
+from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_quat
+from gfc.kinds import HOME_EE_POSE_IN_BASE, OBJECT_KINDS, OBJECT_STATE_DIM, ROBOT_STATE_DIM
+from gfc.plan.graph import (
+    ActionVariable,
+    CompiledPlan,
+    FactorToken,
+    NodeVersion,
+    SpatialFactor,
+    TemporalFactor,
+)
+from gfc.plan.schema import (
+    Aligned,
+    Far,
+    FixedTransform,
+    Inside,
+    Near,
+    PlanRequest,
+    SpatialFactorSpec,
+    Step,
+    Yaw,
+)
+from gfc.skills.signatures import SKILLS, Role, SkillSpec, default_model_key
+
+
+@dataclass(frozen=True)
+class PlanIssue:
+    """One problem in a plan: where it is (``skeleton[2].from``) and what is wrong."""
+
+    loc: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.loc}: {self.message}"
+
+
+class PlanError(ValueError):
+    """Raised with every problem found in a plan, not just the first."""
+
+    def __init__(self, issues: list[PlanIssue]) -> None:
+        self.issues = issues
+        super().__init__("invalid plan:\n" + "\n".join(f"  - {i}" for i in issues))
+
+    def to_json(self) -> list[dict[str, str]]:
+        return [{"loc": i.loc, "message": i.message} for i in self.issues]
+
+
+def _loc_of(parts: tuple[Any, ...]) -> str:
+    out = ""
+    for p in parts:
+        if isinstance(p, int):
+            out += f"[{p}]"
+        else:
+            out += ("." if out else "") + str(p)
+    return out or "plan"
+
+
+def parse_plan(data: Any) -> PlanRequest:
+    """Validate the request's shape, turning pydantic's errors into located ``PlanIssue``s."""
+    try:
+        return PlanRequest.model_validate(data)
+    except ValidationError as exc:
+        issues = []
+        for err in exc.errors(include_url=False):
+            # Drop pydantic's union-member tags (e.g. "inside") so locations read like JSON paths.
+            loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in _UNION_TAGS))
+            issues.append(PlanIssue(_loc_of(loc), err["msg"]))
+        raise PlanError(issues) from None
+
+
+_UNION_TAGS = {"inside", "aligned", "fixed_transform", "yaw", "near", "far", "function-after[_unit_quaternion(), list[float]]"}
+
+
+def load_plan(path: str | Path) -> PlanRequest:
+    """Read a plan JSON file; a file that is not JSON is reported with its line and column."""
+    text = Path(path).read_text()
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise PlanError([PlanIssue(f"{path}:{exc.lineno}:{exc.colno}", f"not JSON: {exc.msg}")]) from None
+    return parse_plan(data)
+
+
+@dataclass
+class _State:
+    """Book-keeping while walking the skeleton."""
+
+    latest: dict[str, int] = field(default_factory=dict)  # entity -> node id
+    holders: dict[str, set[str]] = field(default_factory=dict)  # object -> robots holding it
+    holding: dict[str, str | None] = field(default_factory=dict)  # robot -> object held
+
+
+class _Compiler:
+    def __init__(self, plan: PlanRequest) -> None:
+        self.plan = plan
+        self.issues: list[PlanIssue] = []
+        self.nodes: list[NodeVersion] = []
+        self.actions: list[ActionVariable] = []
+        self.temporal: list[TemporalFactor] = []
+        self.spatial: list[SpatialFactor] = []
+        self.stages: list[tuple[int, ...]] = []
+        self.robots = {r.name: r for r in plan.scene.robots}
+        self.objects = {o.name: o for o in plan.scene.objects}
+        self.state = _State()
+        self.snapshots: list[dict[str, int]] = []  # entity -> node id after each stage
+        self.stage_of_step: dict[int, int] = {}
+        self.stage_of_group: dict[str, int] = {}
+        self.versions: dict[str, int] = {}
+
+    def error(self, loc: str, message: str) -> None:
+        self.issues.append(PlanIssue(loc, message))
+
+    # ------------------------------------------------------------------ scene
+    def check_scene(self) -> None:
+        seen: dict[str, str] = {}
+        for i, r in enumerate(self.plan.scene.robots):
+            if r.name in seen:
+                self.error(f"scene.robots[{i}].name", f"name {r.name!r} is already used by {seen[r.name]}")
+            seen[r.name] = f"scene.robots[{i}]"
+        for i, o in enumerate(self.plan.scene.objects):
+            if o.name in seen:
+                self.error(f"scene.objects[{i}].name", f"name {o.name!r} is already used by {seen[o.name]}")
+            seen[o.name] = f"scene.objects[{i}]"
+            if o.kind not in OBJECT_KINDS:
+                known = ", ".join(sorted(OBJECT_KINDS))
+                self.error(f"scene.objects[{i}].kind", f"unknown object kind {o.kind!r} (known: {known})")
+
+    def world_from_base(self, robot: str) -> np.ndarray:
+        r = self.robots[robot]
+        return pose7_to_matrix([*r.base, *yaw_quat(r.yaw)])
+
+    def add_node(self, entity: str, known_value: np.ndarray | None, written_by: tuple[int, ...]) -> int:
+        is_robot = entity in self.robots
+        version = self.versions.get(entity, -1) + 1
+        self.versions[entity] = version
+        node = NodeVersion(
+            id=len(self.nodes),
+            entity=entity,
+            version=version,
+            entity_type="robot" if is_robot else "object",
+            kind="robot" if is_robot else self.objects[entity].kind,
+            dim=ROBOT_STATE_DIM if is_robot else OBJECT_STATE_DIM,
+            known=known_value is not None,
+            value=None if known_value is None else tuple(float(v) for v in known_value),
+            written_by=written_by,
+        )
+        self.nodes.append(node)
+        self.state.latest[entity] = node.id
+        return node.id
+
+    def initial_nodes(self) -> None:
+        for name, r in self.robots.items():
+            if r.ee_pose is not None:
+                ee = pose7_to_pose9(r.ee_pose)
+            else:
+                ee = matrix_to_pose9(self.world_from_base(name) @ pose7_to_matrix(HOME_EE_POSE_IN_BASE))
+            self.add_node(name, np.concatenate([ee, [r.gripper]]), ())
+            self.state.holding[name] = None
+        for name, o in self.objects.items():
+            if o.kind in OBJECT_KINDS:
+                self.add_node(name, pose7_to_pose9(o.pose), ())
+            self.state.holders[name] = set()
+        self.snapshots.append(dict(self.state.latest))
+
+    # ------------------------------------------------------------------ skeleton
+    def group_stages(self) -> list[list[int]]:
+        stages: list[list[int]] = []
+        closed: set[str] = set()
+        for i, step in enumerate(self.plan.skeleton):
+            g = step.group
+            if g is not None and stages and self.plan.skeleton[stages[-1][0]].group == g:
+                stages[-1].append(i)
+                continue
+            if g is not None and g in closed:
+                self.error(
+                    f"skeleton[{i}].group",
+                    f"group {g!r} is split by other steps; steps of one group must be adjacent",
+                )
+            if g is not None:
+                closed.add(g)
+            stages.append([i])
+        return stages
+
+    def check_entities(self, i: int, step: Step, spec: SkillSpec) -> bool:
+        ok = True
+        loc = f"skeleton[{i}]"
+        if step.robot not in self.robots:
+            kind = "an object, not a robot" if step.robot in self.objects else "not in the scene"
+            self.error(f"{loc}.robot", f"{step.robot!r} is {kind}")
+            ok = False
+        for field_name, value, want in (
+            ("object", step.object, "object"),
+            ("target", step.target, "object"),
+            ("from", step.from_, "robot"),
+        ):
+            if value is None:
+                continue
+            pool = self.objects if want == "object" else self.robots
+            if value not in pool:
+                other = self.robots if want == "object" else self.objects
+                what = f"a {'robot' if want == 'object' else 'object'}, not {'an object' if want == 'object' else 'a robot'}" if value in other else "not in the scene"
+                self.error(f"{loc}.{field_name}", f"{value!r} is {what}")
+                ok = False
+            elif want == "object" and self.objects[value].kind not in OBJECT_KINDS:
+                ok = False  # already reported at scene level
+        if spec.object_required and step.object is None:
+            self.error(f"{loc}.object", f"skill {spec.name!r} needs an object")
+            ok = False
+        if spec.target_required and step.target is None:
+            self.error(f"{loc}.target", f"skill {spec.name!r} needs a target")
+            ok = False
+        if spec.hands_over and step.from_ is None:
+            self.error(f"{loc}.from", f"skill {spec.name!r} needs the robot that hands the object over")
+            ok = False
+        if not spec.target_required and step.target is not None:
+            self.error(f"{loc}.target", f"skill {spec.name!r} takes no target")
+            ok = False
+        if not spec.hands_over and step.from_ is not None:
+            self.error(f"{loc}.from", f"skill {spec.name!r} takes no 'from' robot")
+            ok = False
+        if ok and step.from_ == step.robot:
+            self.error(f"{loc}.from", "a robot cannot hand an object over to itself")
+            ok = False
+        if ok and step.object is not None and step.object == step.target:
+            self.error(f"{loc}.target", "object and target must differ")
+            ok = False
+        return ok
+
+    def check_holding(self, i: int, step: Step, spec: SkillSpec, stage_steps: list[Step]) -> None:
+        loc = f"skeleton[{i}]"
+        held = self.state.holding.get(step.robot)
+        obj = step.object
+        if spec.requires_free and held is not None:
+            self.error(f"{loc}.robot", f"robot {step.robot!r} already holds {held!r}; place or hand it over first")
+        if spec.grasps and not spec.hands_over and obj is not None:
+            holders = self.state.holders.get(obj, set())
+            if holders:
+                who = ", ".join(sorted(holders))
+                self.error(
+                    f"{loc}.object",
+                    f"{obj!r} is already held by {who}: an object cannot be picked twice without "
+                    f"being released (use 'regrasp' with 'from' for a handover)",
+                )
+            o = self.objects[obj]
+            if o.fixed:
+                self.error(f"{loc}.object", f"{obj!r} is fixed to the world and cannot be picked")
+            elif not OBJECT_KINDS[o.kind].graspable:
+                self.error(f"{loc}.object", f"objects of kind {o.kind!r} cannot be grasped")
+        if spec.hands_over and obj is not None and step.from_ is not None:
+            if self.state.holding.get(step.from_) != obj:
+                actual = self.state.holding.get(step.from_)
+                self.error(
+                    f"{loc}.from",
+                    f"robot {step.from_!r} does not hold {obj!r} (it holds {actual!r}) and cannot hand it over",
+                )
+        if spec.requires_held:
+            if obj is None:
+                if spec.name == "move" and held is not None:
+                    self.error(
+                        f"{loc}.object",
+                        f"robot {step.robot!r} holds {held!r}, which moves with it: name it in 'object'",
+                    )
+            elif held != obj:
+                self.error(
+                    f"{loc}.object",
+                    f"robot {step.robot!r} does not hold {obj!r} (it holds {held!r}); "
+                    f"pick it or take it over first",
+                )
+            else:
+                # An object held by several robots moves only if all of them act on it together.
+                co_holders = self.state.holders.get(obj, set()) - {step.robot}
+                in_stage = {s.robot for s in stage_steps if s.object == obj}
+                missing = co_holders - in_stage
+                if missing and spec.name != "pour":
+                    self.error(
+                        f"{loc}.object",
+                        f"{obj!r} is also held by {', '.join(sorted(missing))}, which must act on it "
+                        f"in the same group",
+                    )
+
+    def apply_holding(self, step: Step, spec: SkillSpec) -> None:
+        obj = step.object
+        if obj is None:
+            return
+        if spec.grasps:
+            self.state.holding[step.robot] = obj
+            self.state.holders.setdefault(obj, set()).add(step.robot)
+        if spec.hands_over and step.from_ is not None:
+            self.state.holding[step.from_] = None
+            self.state.holders[obj].discard(step.from_)
+        if spec.releases:
+            self.state.holding[step.robot] = None
+            self.state.holders[obj].discard(step.robot)
+
+    def role_entity(self, step: Step, role: Role) -> str | None:
+        return {"robot": step.robot, "object": step.object, "target": step.target, "from": step.from_}[role]
+
+    def compile_stage(self, stage: list[int]) -> None:
+        steps = [self.plan.skeleton[i] for i in stage]
+        valid: list[tuple[int, Step, SkillSpec]] = []
+        robots_in_stage: dict[str, int] = {}
+        for i, step in zip(stage, steps, strict=True):
+            spec = SKILLS.get(step.skill)
+            if spec is None:
+                self.error(f"skeleton[{i}].skill", f"unknown skill {step.skill!r} (known: {', '.join(sorted(SKILLS))})")
+                continue
+            if not self.check_entities(i, step, spec):
+                continue
+            for r in (step.robot, step.from_):
+                if r is not None and r in robots_in_stage:
+                    self.error(
+                        f"skeleton[{i}].robot",
+                        f"robot {r!r} already acts in step {robots_in_stage[r]} of the same group",
+                    )
+                elif r is not None:
+                    robots_in_stage[r] = i
+            self.check_holding(i, step, spec, steps)
+            valid.append((i, step, spec))
+
+        before = dict(self.state.latest)
+        writers: dict[str, list[int]] = {}
+        for i, step, spec in valid:
+            with_object = step.object is not None
+            for role in spec.writes:
+                entity = self.role_entity(step, role)
+                if entity is not None and (role != "object" or with_object):
+                    writers.setdefault(entity, []).append(i)
+        after = {entity: self.add_node(entity, None, tuple(ws)) for entity, ws in writers.items()}
+
+        for i, step, spec in valid:
+            with_object = step.object is not None
+            tokens: list[FactorToken] = []
+            action_id: int | None = None
+            for token in spec.tokens(with_object=with_object):
+                if token.phase == "action":
+                    action_id = len(self.actions)
+                    self.actions.append(ActionVariable(action_id, i, spec.action_names))
+                    tokens.append(FactorToken("action", "action", token.dim, action=action_id))
+                    continue
+                entity = self.role_entity(step, token.role)  # type: ignore[arg-type]
+                assert entity is not None
+                table = before if token.phase == "pre" else after
+                tokens.append(FactorToken(token.role, token.phase, token.dim, node=table[entity]))
+            model = step.model or default_model_key(
+                spec.name, self.objects[step.object].kind if step.object else None
+            )
+            self.temporal.append(
+                TemporalFactor(
+                    step=i,
+                    skill=spec.name,
+                    model=model,
+                    robot=step.robot,
+                    group=step.group,
+                    tokens=tuple(tokens),
+                    world_from_model=tuple(tuple(float(v) for v in row) for row in self.world_from_base(step.robot)),
+                )
+            )
+            self.apply_holding(step, spec)
+        stage_index = len(self.snapshots)
+        for i in stage:
+            self.stage_of_step[i] = stage_index
+        group = steps[0].group
+        if group is not None:
+            self.stage_of_group[group] = stage_index
+        self.stages.append(tuple(stage))
+        self.snapshots.append(dict(self.state.latest))
+
+    # ------------------------------------------------------------------ spatial factors
+    def resolve_ref(self, ref: int | str, loc: str) -> int | None:
+        """A reference -> index into ``self.snapshots``."""
+        if isinstance(ref, int):
+            if ref >= len(self.plan.skeleton):
+                self.error(loc, f"step {ref} does not exist (the skeleton has {len(self.plan.skeleton)} steps, 0-{len(self.plan.skeleton) - 1})")
+                return None
+            return self.stage_of_step.get(ref)
+        if ref == "start":
+            return 0
+        if ref == "end":
+            return len(self.snapshots) - 1
+        if ref not in self.stage_of_group:
+            groups = ", ".join(sorted(self.stage_of_group)) or "none"
+            self.error(loc, f"no step or group {ref!r} (groups: {groups}; or 'start', 'end', a step index)")
+            return None
+        return self.stage_of_group[ref]
+
+    def entity_node(self, snapshot: int, entity: str, loc: str) -> int | None:
+        if entity not in self.robots and entity not in self.objects:
+            self.error(loc, f"{entity!r} is not in the scene")
+            return None
+        return self.snapshots[snapshot].get(entity)
+
+    def kind_frame(self, entity: str, frame: str | None, loc: str) -> tuple[float, ...] | None:
+        if entity in self.robots:
+            if frame is not None:
+                self.error(loc, f"robots have no named frames (got {frame!r})")
+                return None
+            return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        kind = OBJECT_KINDS.get(self.objects[entity].kind)
+        if kind is None:
+            return None
+        try:
+            return kind.frame(frame)
+        except KeyError as exc:
+            self.error(loc, str(exc.args[0]))
+            return None
+
+    def compile_spatial(self, spec: SpatialFactorSpec, source: str, index: int) -> None:
+        loc = f"{source}[{index}]"
+        snapshots: list[int] = []
+        for j, ref in enumerate(spec.refs()):
+            ref_loc = f"{loc}.at" if not isinstance(spec.at, list) else f"{loc}.at[{j}]"
+            snap = self.resolve_ref(ref, ref_loc)
+            if snap is not None:
+                snapshots.append(snap)
+        if len(snapshots) != len(spec.refs()):
+            return
+        entities = [("object", spec.object)]
+        target = getattr(spec, "target", None)
+        if target is not None:
+            entities.append(("target", target))
+        for field_name, entity in entities:
+            if entity not in self.robots and entity not in self.objects:
+                self.error(f"{loc}.{field_name}", f"{entity!r} is not in the scene")
+                return
+        params: dict[str, Any] = {"weight": spec.weight}
+        if isinstance(spec, Inside):
+            kind = OBJECT_KINDS.get(self.objects[spec.target].kind) if spec.target in self.objects else None
+            if kind is None or kind.inner_half_extents is None:
+                self.error(f"{loc}.target", f"{spec.target!r} is not a container (open boxes, mugs, cups, pots are)")
+                return
+            params.update(inner_half_extents=list(kind.inner_half_extents), margin=spec.margin, tolerance=0.01)
+        elif isinstance(spec, Aligned):
+            f1 = self.kind_frame(spec.object, spec.frame, f"{loc}.frame")
+            f2 = self.kind_frame(spec.target, spec.target_frame, f"{loc}.target_frame")
+            if f1 is None or f2 is None:
+                return
+            params.update(object_frame=list(f1), target_frame=list(f2), height=spec.height, tolerance=spec.tolerance)
+        elif isinstance(spec, FixedTransform):
+            if spec.transform is None and len(snapshots) < 2:
+                self.error(f"{loc}.at", "fixed_transform needs two or more states in 'at', or a 'transform'")
+                return
+            params.update(tolerance=spec.tolerance, transform=spec.transform)
+        elif isinstance(spec, Yaw):
+            params.update(yaw=math.radians(spec.yaw_deg), tolerance=math.radians(spec.tolerance_deg))
+        elif isinstance(spec, Near | Far):
+            params.update(distance=spec.distance, tolerance=0.01)
+
+        def nodes_at(snap: int) -> tuple[int, ...] | None:
+            out = []
+            for field_name, entity in entities:
+                node = self.entity_node(snap, entity, f"{loc}.{field_name}")
+                if node is None:
+                    return None
+                out.append(node)
+            return tuple(out)
+
+        groups: list[list[int]] = [snapshots] if isinstance(spec, FixedTransform) and spec.transform is None else [[s] for s in snapshots]
+        for snaps in groups:
+            nodes: list[int] = []
+            for s in snaps:
+                at = nodes_at(s)
+                if at is None:
+                    return
+                nodes.extend(at)
+            self.spatial.append(SpatialFactor(spec.type, source, index, tuple(nodes), dict(params)))  # type: ignore[arg-type]
+
+    def run(self) -> CompiledPlan:
+        self.check_scene()
+        if self.issues:
+            raise PlanError(self.issues)
+        self.initial_nodes()
+        for stage in self.group_stages():
+            self.compile_stage(stage)
+        for i, c in enumerate(self.plan.constraints):
+            self.compile_spatial(c, "constraints", i)
+        for i, g in enumerate(self.plan.goal):
+            self.compile_spatial(g, "goal", i)
+        if self.issues:
+            raise PlanError(self.issues)
+        return CompiledPlan(
+            nodes=tuple(self.nodes),
+            actions=tuple(self.actions),
+            temporal=tuple(self.temporal),
+            spatial=tuple(self.spatial),
+            stages=tuple(self.stages),
+        )
+
+
+def compile_plan(plan: PlanRequest | dict[str, Any]) -> CompiledPlan:
+    """Validate and compile; raises ``PlanError`` listing every problem with its location."""
+    request = plan if isinstance(plan, PlanRequest) else parse_plan(plan)
+    return _Compiler(request).run()
+
+
+__all__ = ["PlanError", "PlanIssue", "compile_plan", "load_plan", "parse_plan"]

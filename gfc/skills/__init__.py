@@ -1,0 +1,1 @@
+"""Skill signatures: what each skill reads, writes and acts with."""

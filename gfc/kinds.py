@@ -18,10 +18,11 @@ ROBOT_STATE_DIM = POSE9_DIM + 1
 OBJECT_STATE_DIM = POSE9_DIM
 GRIPPER_OPEN = 0.08
 
-# Panda end effector (link 11, panda_grasptarget) at the home configuration, in the base frame:
-# pointing down, fingers along the base y axis. The simulator checks this against forward
-# kinematics (tests/sim), so a plan that does not state its robots' poses starts from here.
-HOME_EE_POSE_IN_BASE = (0.45, 0.0, 0.45, 1.0, 0.0, 0.0, 0.0)
+# Panda end effector (link 11, panda_grasptarget) at the home configuration
+# (gfc.sim.panda.HOME_JOINTS), in the base frame: pointing down, fingers along the base y axis.
+# Forward kinematics gives (0.3070, 0.0000, 0.4853) and this rotation within 0.02 degrees;
+# tests/sim/test_world.py checks it, so a plan that does not state its robots' poses starts here.
+HOME_EE_POSE_IN_BASE = (0.307, 0.0, 0.485, 1.0, 0.0, 0.0, 0.0)
 
 IDENTITY_FRAME = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
@@ -58,12 +59,12 @@ def _kinds(*kinds: ObjectKind) -> dict[str, ObjectKind]:
 OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
     ObjectKind(
         "hammer",
-        "handle (x axis, 0.26 m) with a head at +x; grasp the handle to strike",
-        half_extents=(0.15, 0.05, 0.0175),
+        "handle (x axis, 0.24 m) with a head at +x; grasp the handle to strike",
+        half_extents=(0.12, 0.05, 0.0175),
         frames={
-            "head": (0.13, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
-            "handle": (-0.05, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
-            "handle_end": (-0.13, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
+            "head": (0.095, 0.0, 0.0175, 0.0, 0.0, 0.0, 1.0),
+            "handle": (-0.03, 0.0, 0.0125, 0.0, 0.0, 0.0, 1.0),
+            "handle_end": (-0.10, 0.0, 0.0125, 0.0, 0.0, 0.0, 1.0),
         },
     ),
     ObjectKind(
@@ -77,29 +78,29 @@ OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
     ObjectKind(
         "lid",
         "a flat lid with a knob on top",
-        half_extents=(0.11, 0.11, 0.02),
+        half_extents=(0.16, 0.11, 0.02),
         frames={"knob": (0.0, 0.0, 0.03, 0.0, 0.0, 0.0, 1.0)},
     ),
     ObjectKind(
         "box",
-        "an open box with thin walls",
-        half_extents=(0.11, 0.11, 0.05),
-        inner_half_extents=(0.1, 0.1, 0.05),
+        "an open box with thin walls, long enough for the hammer",
+        half_extents=(0.15, 0.1, 0.04),
+        inner_half_extents=(0.14, 0.09, 0.04),
         graspable=False,
     ),
     ObjectKind(
         "mug",
         "a narrow mug opening along +z, handle at -x",
-        half_extents=(0.045, 0.045, 0.05),
+        half_extents=(0.035, 0.035, 0.05),
         frames={"rim": (0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 1.0)},
-        inner_half_extents=(0.035, 0.035, 0.05),
+        inner_half_extents=(0.027, 0.027, 0.05),
     ),
     ObjectKind(
         "cup",
-        "a wide cup opening along +z, no handle",
-        half_extents=(0.055, 0.055, 0.04),
+        "a wider, shorter cup opening along +z, no handle",
+        half_extents=(0.038, 0.038, 0.04),
         frames={"rim": (0.0, 0.0, 0.08, 0.0, 0.0, 0.0, 1.0)},
-        inner_half_extents=(0.05, 0.05, 0.04),
+        inner_half_extents=(0.031, 0.031, 0.04),
     ),
     ObjectKind(
         "pot",

@@ -1,0 +1,1 @@
+"""PyBullet simulation of a bimanual Franka Panda: world, objects, skill executors, rendering."""

@@ -1,0 +1,115 @@
+"""Collision checks on the planning mirror: robots at trial configurations, held objects along.
+
+A configuration is in collision when a moving body (an acting arm or an object one of them
+holds) penetrates anything by more than ``PENETRATION_TOLERANCE``: the table, the other arm,
+any object. Resting contact (the fingers on what they hold) is allowed; beads are ignored
+because they are contents, not obstacles.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+
+from gfc.geometry import FloatArray
+from gfc.sim.panda import ARM_DOF, HAND_LINKS, ee_matrix, set_joints
+from gfc.sim.world import World, place_in_mirror
+
+PENETRATION_TOLERANCE = 0.002
+
+
+@dataclass(frozen=True)
+class Carried:
+    """An object moving with a robot's end effector during a motion."""
+
+    robot: str
+    object: str
+    ee_from_object: FloatArray
+
+
+@dataclass(frozen=True)
+class Collision:
+    moving: str
+    other: str
+
+
+CollisionFn = Callable[[FloatArray], Collision | None]
+
+
+def make_collision_fn(
+    world: World,
+    robots: Sequence[str],
+    carried: Sequence[Carried] = (),
+    fingers: dict[str, float] | None = None,
+    allowed: frozenset[tuple[str, str]] = frozenset(),
+) -> CollisionFn:
+    """A checker for the stacked joint vector of ``robots`` (7 per robot, in that order).
+
+    ``allowed`` holds (moving, other) name pairs that may touch (a gripper and the object it is
+    about to grasp). Returns the first collision found, or ``None`` when the configuration is free.
+    """
+    mirror = world.mirror
+    client = mirror.client
+    name_of_body = {r.body: n for n, r in mirror.robots.items()}
+    name_of_body.update({o.body: n for n, o in mirror.objects.items()})
+    name_of_body[mirror.table] = "table"
+    bead_bodies = set(mirror.beads)
+    finger_half = {r: (fingers or {}).get(r, 0.04) / 2 for r in robots}
+    holders: dict[str, set[str]] = {}
+    for c in carried:
+        holders.setdefault(c.object, set()).add(c.robot)
+    moving_bodies = [mirror.robots[r].body for r in robots] + [
+        mirror.objects[o].body for o in holders
+    ]
+
+    def touching_allowed(moving: str, other: str, moving_link: int, other_link: int) -> bool:
+        if (moving, other) in allowed or (other, moving) in allowed:
+            return True
+        # A held object may touch the hand that holds it.
+        if moving in holders and other in holders[moving] and other_link in HAND_LINKS:
+            return True
+        return other in holders and moving in holders[other] and moving_link in HAND_LINKS
+
+    def check(q: FloatArray) -> Collision | None:
+        for i, r in enumerate(robots):
+            set_joints(client, mirror.robots[r], q[i * ARM_DOF : (i + 1) * ARM_DOF], finger_half[r])
+        for c in carried:
+            place_in_mirror(
+                mirror, c.object, ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object
+            )
+        pb.performCollisionDetection(physicsClientId=client)
+        for body in moving_bodies:
+            for contact in pb.getContactPoints(bodyA=body, physicsClientId=client):
+                other_body, link_a, link_b, distance = (
+                    contact[2],
+                    contact[3],
+                    contact[4],
+                    contact[8],
+                )
+                if (
+                    distance > -PENETRATION_TOLERANCE
+                    or other_body in bead_bodies
+                    or other_body == body
+                ):
+                    continue
+                moving, other = name_of_body[body], name_of_body.get(other_body, "?")
+                if not touching_allowed(moving, other, link_a, link_b):
+                    return Collision(moving, other)
+        return None
+
+    return check
+
+
+def first_collision_on_segment(
+    check: CollisionFn, a: FloatArray, b: FloatArray, resolution: float = 0.03
+) -> Collision | None:
+    """Check a straight joint-space segment every ``resolution`` radians (max-norm)."""
+    n = max(2, int(np.ceil(np.max(np.abs(b - a)) / resolution)) + 1)
+    for t in np.linspace(0.0, 1.0, n):
+        hit = check(a + t * (b - a))
+        if hit is not None:
+            return hit
+    return None

@@ -1,0 +1,99 @@
+"""Goal and constraint predicates evaluated on the simulated state (not on predicted nodes)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gfc.geometry import FloatArray, pose7_to_matrix
+from gfc.kinds import object_kind
+from gfc.plan.schema import Aligned, Far, FixedTransform, Inside, Near, SpatialFactorSpec, Yaw
+from gfc.sim.panda import ee_matrix
+from gfc.sim.world import World, object_matrix, yaw_of
+
+
+def entity_matrix(world: World, name: str) -> FloatArray:
+    if name in world.physics.robots:
+        return ee_matrix(world.client, world.physics.robots[name])
+    return object_matrix(world.physics, name)
+
+
+def _frame(world: World, name: str, frame: str | None) -> FloatArray:
+    base = entity_matrix(world, name)
+    if name in world.physics.robots:
+        return base
+    return base @ pose7_to_matrix(object_kind(world.physics.objects[name].kind).frame(frame))
+
+
+def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
+    """Whether one predicate holds now, and a line saying by how much."""
+    if isinstance(spec, Inside):
+        kind = object_kind(world.physics.objects[spec.target].kind)
+        assert kind.inner_half_extents is not None
+        local = (
+            np.linalg.inv(entity_matrix(world, spec.target))
+            @ entity_matrix(world, spec.object)[:, 3]
+        )
+        half = np.asarray(kind.inner_half_extents)
+        # The bottom centre must lie within the opening in xy and between the floor and the rim.
+        inside_xy = bool(np.all(np.abs(local[:2]) <= half[:2] + spec.margin))
+        inside_z = bool(-spec.margin <= local[2] <= 2 * half[2] + spec.margin)
+        where = f"({local[0]:+.3f}, {local[1]:+.3f}, {local[2]:+.3f}) in {spec.target}"
+        return inside_xy and inside_z, f"inside({spec.object}, {spec.target}): bottom at {where}"
+    if isinstance(spec, Aligned):
+        a = _frame(world, spec.object, spec.frame)[:3, 3]
+        b = _frame(world, spec.target, spec.target_frame)[:3, 3]
+        xy = float(np.linalg.norm(a[:2] - b[:2]))
+        ok = xy <= spec.tolerance
+        text = f"aligned({spec.object}, {spec.target}): {xy * 100:.1f} cm apart in xy"
+        if spec.height is not None:
+            dz = float(a[2] - b[2])
+            ok = ok and abs(dz - spec.height) <= spec.tolerance
+            text += f", {dz * 100:.1f} cm above (want {spec.height * 100:.1f})"
+        return ok, text
+    if isinstance(spec, Yaw):
+        yaw = yaw_of(entity_matrix(world, spec.object))
+        err = math.degrees(
+            math.atan2(
+                math.sin(yaw - math.radians(spec.yaw_deg)),
+                math.cos(yaw - math.radians(spec.yaw_deg)),
+            )
+        )
+        return (
+            abs(err) <= spec.tolerance_deg,
+            f"yaw({spec.object}) = {math.degrees(yaw):.1f} deg ({err:+.1f} off)",
+        )
+    if isinstance(spec, Near | Far):
+        d = float(
+            np.linalg.norm(
+                entity_matrix(world, spec.object)[:3, 3] - entity_matrix(world, spec.target)[:3, 3]
+            )
+        )
+        ok = d <= spec.distance if isinstance(spec, Near) else d >= spec.distance
+        return ok, f"{spec.type}({spec.object}, {spec.target}): {d:.3f} m (limit {spec.distance})"
+    if isinstance(spec, FixedTransform):
+        if spec.transform is None:
+            return (
+                True,
+                "fixed_transform over several states is checked step by step, not at the end",
+            )
+        rel = np.linalg.inv(entity_matrix(world, spec.object)) @ entity_matrix(world, spec.target)
+        d = float(np.linalg.norm(rel[:3, 3] - np.asarray(spec.transform[:3])))
+        return (
+            d <= spec.tolerance,
+            f"fixed_transform({spec.object}, {spec.target}): {d * 100:.1f} cm off",
+        )
+    raise TypeError(f"unknown predicate {spec!r}")
+
+
+def goal_satisfied(world: World, goal: list[SpatialFactorSpec]) -> tuple[bool, list[str]]:
+    """All goal predicates that refer to the end state, checked in the simulator now."""
+    report, ok = [], True
+    for spec in goal:
+        if spec.refs() != ["end"]:
+            continue
+        holds, text = check_predicate(world, spec)
+        ok = ok and holds
+        report.append(("ok   " if holds else "FAIL ") + text)
+    return ok, report

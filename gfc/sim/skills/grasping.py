@@ -1,0 +1,80 @@
+"""``pick`` (grasp an object lying free) and ``regrasp`` (take it from the other hand)."""
+
+from __future__ import annotations
+
+from gfc.geometry import FloatArray, pose9_to_matrix
+from gfc.plan.schema import Step
+from gfc.sim.control import close_gripper, open_gripper
+from gfc.sim.outcome import FailureType, SkillFailure
+from gfc.sim.skills.motions import (
+    APPROACH,
+    LIFT,
+    SkillContext,
+    backed_off,
+    check_grasp_on_object,
+    ee,
+    held_offset_error,
+    reach,
+    require_free,
+    require_holding,
+    straight,
+    translated,
+)
+from gfc.sim.world import object_matrix
+
+MIN_LIFT = 0.08  # m the object must rise during the lift for the pick to count
+
+
+def pick(ctx: SkillContext, step: Step, action: FloatArray) -> str:
+    """Reach the pre-grasp pose, approach, close the fingers, lift straight up."""
+    world, robot, obj = ctx.world, step.robot, step.object
+    assert obj is not None
+    require_free(world, robot)
+    for other, grasp in world.grasps.items():
+        if grasp.object == obj:
+            raise SkillFailure(FailureType.METHOD, f"{obj} is held by {other}; use regrasp")
+    world_from_grasp = object_matrix(world.physics, obj) @ pose9_to_matrix(action)
+    check_grasp_on_object(world, obj, world_from_grasp)
+    reach(ctx, robot, backed_off(world_from_grasp, APPROACH), f"the pre-grasp pose of {obj}")
+    straight(ctx, robot, world_from_grasp, f"the grasp pose of {obj}")
+    z_before = object_matrix(world.physics, obj)[2, 3]
+    if close_gripper(world, robot, obj) is None:
+        raise SkillFailure(FailureType.PHYSICS, f"the fingers closed without holding {obj}")
+    straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, LIFT]), f"lift {obj}")
+    rise = object_matrix(world.physics, obj)[2, 3] - z_before
+    if rise < MIN_LIFT or held_offset_error(ctx, robot) > 0.02:
+        raise SkillFailure(
+            FailureType.PHYSICS,
+            f"{obj} did not come up with the gripper (rose {rise * 100:.1f} cm)",
+        )
+    return f"picked {obj}, lifted {rise * 100:.1f} cm"
+
+
+def regrasp(ctx: SkillContext, step: Step, action: FloatArray) -> str:
+    """Handover: the receiver grasps the object in the giver's hand, then the giver lets go."""
+    world, receiver, giver, obj = ctx.world, step.robot, step.from_, step.object
+    assert obj is not None
+    assert giver is not None
+    require_free(world, receiver)
+    require_holding(world, giver, obj)
+    world_from_grasp = object_matrix(world.physics, obj) @ pose9_to_matrix(action)
+    check_grasp_on_object(world, obj, world_from_grasp)
+    giver_grasp_point = ee(ctx, giver)[:3, 3]
+    if float(((world_from_grasp[:3, 3] - giver_grasp_point) ** 2).sum() ** 0.5) < 0.04:
+        raise SkillFailure(FailureType.METHOD, f"the grasp is on {giver}'s fingers (within 4 cm)")
+    reach(ctx, receiver, backed_off(world_from_grasp, APPROACH), f"the handover pre-grasp of {obj}")
+    straight(ctx, receiver, world_from_grasp, f"the handover grasp of {obj}")
+    if close_gripper(world, receiver, obj) is None:
+        raise SkillFailure(
+            FailureType.PHYSICS, f"{receiver}'s fingers closed without holding {obj}"
+        )
+    open_gripper(world, giver)
+    try:
+        straight(ctx, giver, backed_off(ee(ctx, giver), 0.08), f"{giver}'s retreat")
+    except SkillFailure:
+        ctx.notes.append(f"{giver} could not retreat in a straight line")
+    if held_offset_error(ctx, receiver) > 0.02:
+        raise SkillFailure(
+            FailureType.PHYSICS, f"{obj} slipped in {receiver}'s hand during the handover"
+        )
+    return f"{receiver} took {obj} from {giver}"

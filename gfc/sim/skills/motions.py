@@ -1,0 +1,161 @@
+"""Motion building blocks shared by the skill executors: reach a pose collision-free, move in a
+straight line, and the geometric checks that turn into failure type 1."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gfc.geometry import FloatArray, invert
+from gfc.kinds import object_kind
+from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
+from gfc.sim.control import (
+    cartesian_joint_path,
+    execute_paths,
+    gripper_target,
+    interpolate_poses,
+    waypoint_count,
+)
+from gfc.sim.ik import solve_ik
+from gfc.sim.motion import plan_motion
+from gfc.sim.outcome import FailureType, SkillFailure
+from gfc.sim.panda import arm_joints, ee_matrix
+from gfc.sim.world import World, object_matrix, sync_mirror
+
+APPROACH = 0.10  # m: pre-grasp offset back along the gripper's approach axis
+LIFT = 0.12  # m: how far a pick lifts the object
+IK_ATTEMPTS = 24
+
+
+@dataclass
+class SkillContext:
+    world: World
+    rng: np.random.Generator
+    planning_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+
+def joints(ctx: SkillContext, robot: str) -> FloatArray:
+    return arm_joints(ctx.world.client, ctx.world.physics.robots[robot])
+
+
+def ee(ctx: SkillContext, robot: str) -> FloatArray:
+    return ee_matrix(ctx.world.client, ctx.world.physics.robots[robot])
+
+
+def carried_by(ctx: SkillContext, robots: Sequence[str]) -> list[Carried]:
+    out = []
+    for r in robots:
+        grasp = ctx.world.grasps.get(r)
+        if grasp is not None:
+            out.append(Carried(r, grasp.object, grasp.ee_from_object))
+    return out
+
+
+def collision_fn(
+    ctx: SkillContext, robots: Sequence[str], allowed: frozenset[tuple[str, str]] = frozenset()
+) -> CollisionFn:
+    sync_mirror(ctx.world)
+    fingers = {r: 0.0 if r in ctx.world.grasps else 0.08 for r in robots}
+    return make_collision_fn(ctx.world, robots, carried_by(ctx, robots), fingers, allowed)
+
+
+def free_ik(
+    ctx: SkillContext, robot: str, world_from_ee: FloatArray, check: CollisionFn, what: str
+) -> FloatArray:
+    """A collision-free IK solution, or type 1 (none exists) / type 2 (all of them collide)."""
+    seed = joints(ctx, robot)
+    collisions: list[str] = []
+    for attempt in range(IK_ATTEMPTS):
+        q = solve_ik(
+            ctx.world, robot, world_from_ee, seed, ctx.rng, restarts=0 if attempt == 0 else 1
+        )
+        if q is None:
+            continue
+        hit = check(q)
+        if hit is None:
+            return q
+        collisions.append(f"{hit.moving} with {hit.other}")
+    if collisions:
+        raise SkillFailure(
+            FailureType.PATH, f"{robot}: every IK solution for {what} collides ({collisions[0]})"
+        )
+    p = world_from_ee[:3, 3]
+    raise SkillFailure(
+        FailureType.METHOD,
+        f"{robot}: no IK solution for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})",
+    )
+
+
+def reach(ctx: SkillContext, robot: str, world_from_ee: FloatArray, what: str) -> None:
+    """Plan a collision-free joint path to the pose (with what the robot holds) and execute it."""
+    check = collision_fn(ctx, [robot])
+    goal = free_ik(ctx, robot, world_from_ee, check, what)
+    result = plan_motion(check, joints(ctx, robot), goal, ctx.rng)
+    ctx.planning_s += result.planning_s
+    if result.path is None:
+        raise SkillFailure(
+            FailureType.PATH, f"{robot}: no collision-free path to {what}: {result.reason}"
+        )
+    execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)})
+
+
+def straight(
+    ctx: SkillContext, robot: str, world_from_ee: FloatArray, what: str, speed: float = 0.5
+) -> None:
+    """Move the end effector in a straight line (approach, retreat, lift); contact is allowed."""
+    start = ee(ctx, robot)
+    poses = interpolate_poses(start, world_from_ee, waypoint_count(start, world_from_ee))
+    path = cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng)
+    if path is None:
+        raise SkillFailure(FailureType.METHOD, f"{robot}: cannot move in a straight line to {what}")
+    execute_paths(ctx.world, {robot: path}, {robot: gripper_target(ctx.world, robot)}, speed=speed)
+
+
+def translated(world_from_frame: FloatArray, offset: Sequence[float] | FloatArray) -> FloatArray:
+    out = world_from_frame.copy()
+    out[:3, 3] += np.asarray(offset)
+    return out
+
+
+def backed_off(world_from_ee: FloatArray, distance: float) -> FloatArray:
+    """The pose ``distance`` back along the gripper's approach (z) axis."""
+    return translated(world_from_ee, -distance * world_from_ee[:3, 2])
+
+
+def check_grasp_on_object(world: World, obj: str, world_from_grasp: FloatArray) -> None:
+    """Type 1 when the grasp point is not on the object (outside its box by more than 1 cm)."""
+    kind = object_kind(world.physics.objects[obj].kind)
+    object_from_grasp = invert(object_matrix(world.physics, obj)) @ world_from_grasp
+    p = object_from_grasp[:3, 3]
+    half = np.asarray(kind.half_extents)
+    centre = np.array([0.0, 0.0, half[2]])
+    outside = np.maximum(np.abs(p - centre) - half, 0.0)
+    if float(np.linalg.norm(outside)) > 0.01:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"grasp point is {np.linalg.norm(outside) * 100:.1f} cm outside the {obj}",
+        )
+
+
+def require_holding(world: World, robot: str, obj: str | None) -> None:
+    grasp = world.grasps.get(robot)
+    if obj is not None and (grasp is None or grasp.object != obj):
+        held = "nothing" if grasp is None else grasp.object
+        raise SkillFailure(FailureType.METHOD, f"{robot} must hold {obj} but holds {held}")
+
+
+def require_free(world: World, robot: str) -> None:
+    if robot in world.grasps:
+        raise SkillFailure(
+            FailureType.METHOD, f"{robot} already holds {world.grasps[robot].object}"
+        )
+
+
+def held_offset_error(ctx: SkillContext, robot: str) -> float:
+    """How far (m) the held object has moved relative to the hand since it was grasped."""
+    grasp = ctx.world.grasps[robot]
+    now = invert(ee(ctx, robot)) @ object_matrix(ctx.world.physics, grasp.object)
+    return float(np.linalg.norm(now[:3, 3] - grasp.ee_from_object[:3, 3]))

@@ -1,0 +1,174 @@
+"""``strike`` and ``pour``: terminal skills with no action. Each checks its precondition
+geometrically (failure type 1 when it does not hold), then runs a scripted motion whose effect
+the simulator judges (type 3 when the strike misses or the pour spills).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as pb
+
+from gfc.geometry import FloatArray, pose7_to_matrix
+from gfc.kinds import object_kind
+from gfc.plan.schema import Step
+from gfc.sim.control import cartesian_joint_path, execute_paths, gripper_target
+from gfc.sim.outcome import FailureType, SkillFailure
+from gfc.sim.skills.motions import SkillContext, ee, joints, require_holding, straight, translated
+from gfc.sim.world import World, bead_positions, object_matrix
+from gfc.sim.world import step as physics_step
+
+STRIKE_XY_TOLERANCE = 0.02  # m between the striking face's centre and the nail top
+STRIKE_MAX_GAP = 0.10  # m: a swing longer than this is not a strike
+STRIKE_TILT = math.radians(25.0)  # striking faces must face down within this
+POUR_UPRIGHT = math.radians(15.0)
+POUR_ANGLE = math.radians(125.0)
+POUR_LIP_FRACTION = 0.7  # lip within this fraction of the target's inner radius from its centre
+POUR_MIN_CLEARANCE, POUR_MAX_CLEARANCE = 0.0, 0.06  # source bottom above the target rim, m
+POUR_SHARE = 0.8  # fraction of the contents that must land in the target
+
+
+def _frame(world: World, name: str, frame: str) -> FloatArray:
+    kind = object_kind(world.physics.objects[name].kind)
+    return object_matrix(world.physics, name) @ pose7_to_matrix(kind.frame(frame))
+
+
+def strike(ctx: SkillContext, step: Step, action: FloatArray) -> str:
+    """Hammer: the head's top or bottom face over the target's top, then a short fast blow down."""
+    world, robot, tool, target = ctx.world, step.robot, step.object, step.target
+    assert tool is not None
+    assert target is not None
+    require_holding(world, robot, tool)
+    tool_kind = object_kind(world.physics.objects[tool].kind)
+    if "head" not in tool_kind.frames:
+        raise SkillFailure(
+            FailureType.METHOD, f"{tool} ({tool_kind.name}) has no head to strike with"
+        )
+    head = _frame(world, tool, "head")
+    up = head[:3, 2]
+    tilt = math.acos(min(1.0, abs(float(up[2]))))
+    if tilt > STRIKE_TILT:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"the striking faces are tilted {math.degrees(tilt):.0f} deg from level",
+        )
+    face = head[:3, 3] - math.copysign(tool_kind.half_extents[2], float(up[2])) * up
+    target_kind = object_kind(world.physics.objects[target].kind)
+    top = (
+        _frame(world, target, "top")[:3, 3]
+        if "top" in target_kind.frames
+        else object_matrix(world.physics, target)[:3, 3] + [0, 0, 2 * target_kind.half_extents[2]]
+    )
+    offset = float(np.linalg.norm(face[:2] - top[:2]))
+    gap = float(face[2] - top[2])
+    if offset > STRIKE_XY_TOLERANCE:
+        raise SkillFailure(
+            FailureType.METHOD, f"the head is {offset * 100:.1f} cm beside the {target}'s top"
+        )
+    if not -0.005 <= gap <= STRIKE_MAX_GAP:
+        raise SkillFailure(
+            FailureType.METHOD, f"the head is {gap * 100:.1f} cm above the {target}'s top"
+        )
+    straight(
+        ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, -(gap + 0.015)]), "the blow", speed=1.5
+    )
+    physics_step(world, 10)
+    touching = pb.getContactPoints(
+        bodyA=world.physics.objects[tool].body,
+        bodyB=world.physics.objects[target].body,
+        physicsClientId=world.client,
+    )
+    if not touching:
+        raise SkillFailure(FailureType.PHYSICS, f"the blow missed the {target}")
+    return f"struck the {target} ({offset * 100:.1f} cm off centre, {gap * 100:.1f} cm swing)"
+
+
+def _beads_inside(world: World, container: str) -> int:
+    kind = object_kind(world.physics.objects[container].kind)
+    assert kind.inner_half_extents is not None
+    ix, iy, iz = kind.inner_half_extents
+    container_from_world = np.linalg.inv(object_matrix(world.physics, container))
+    count = 0
+    for p in bead_positions(world):
+        local = container_from_world @ np.array([*p, 1.0])
+        if abs(local[0]) <= ix and abs(local[1]) <= iy and -0.005 <= local[2] <= 2 * iz + 0.01:
+            count += 1
+    return count
+
+
+def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
+    """Tip the held container about its lip (the rim point nearest the target), then right it."""
+    world, robot, source, target = ctx.world, step.robot, step.object, step.target
+    assert source is not None
+    assert target is not None
+    require_holding(world, robot, source)
+    kinds = [object_kind(world.physics.objects[n].kind) for n in (source, target)]
+    for name, kind in zip((source, target), kinds, strict=True):
+        if kind.inner_half_extents is None or "rim" not in kind.frames:
+            raise SkillFailure(
+                FailureType.METHOD, f"{name} ({kind.name}) is not a container with a rim"
+            )
+        up = object_matrix(world.physics, name)[:3, 2]
+        if math.acos(min(1.0, float(up[2]))) > POUR_UPRIGHT:
+            raise SkillFailure(FailureType.METHOD, f"{name} is not upright before the pour")
+    source_rim, target_rim = (
+        _frame(world, source, "rim")[:3, 3],
+        _frame(world, target, "rim")[:3, 3],
+    )
+    towards = target_rim[:2] - source_rim[:2]
+    distance = float(np.linalg.norm(towards))
+    if distance < 1e-6:
+        raise SkillFailure(
+            FailureType.METHOD, f"{source} is right above {target}'s centre: no side to pour over"
+        )
+    direction = np.array([*(towards / distance), 0.0])
+    assert kinds[0].inner_half_extents is not None
+    assert kinds[1].inner_half_extents is not None
+    lip = source_rim + kinds[0].inner_half_extents[0] * direction
+    lip_offset = float(np.linalg.norm(lip[:2] - target_rim[:2]))
+    if lip_offset > POUR_LIP_FRACTION * kinds[1].inner_half_extents[0]:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"the lip of {source} is {lip_offset * 100:.1f} cm from {target}'s centre",
+        )
+    clearance = float(object_matrix(world.physics, source)[2, 3] - target_rim[2])
+    if not POUR_MIN_CLEARANCE <= clearance <= POUR_MAX_CLEARANCE:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"{source}'s bottom is {clearance * 100:.1f} cm above {target}'s rim",
+        )
+    before = _beads_inside(world, source)
+    # Rotate about the horizontal axis perpendicular to the pouring direction, through the lip.
+    axis = np.cross([0.0, 0.0, 1.0], direction)
+    start = ee(ctx, robot)
+    poses = []
+    for angle in np.linspace(0.0, POUR_ANGLE, 40):
+        rot = _axis_angle(axis, float(angle))
+        pose = start.copy()
+        pose[:3, :3] = rot @ start[:3, :3]
+        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip)
+        poses.append(pose)
+    path = cartesian_joint_path(world, robot, joints(ctx, robot), poses, ctx.rng)
+    if path is None:
+        raise SkillFailure(FailureType.METHOD, f"{robot} cannot tip {source} that far from here")
+    fingers = {robot: gripper_target(world, robot)}
+    execute_paths(world, {robot: path}, fingers, speed=0.8)
+    physics_step(world, 240)
+    execute_paths(world, {robot: path[::-1]}, fingers, speed=0.8)
+    physics_step(world, 120)
+    landed = _beads_inside(world, target)
+    if before == 0:
+        return f"tipped {source} over {target} (it held no contents)"
+    if landed < math.ceil(POUR_SHARE * before):
+        raise SkillFailure(
+            FailureType.PHYSICS, f"spilled: {landed} of {before} beads landed in {target}"
+        )
+    return f"poured {landed} of {before} beads into {target}"
+
+
+def _axis_angle(axis: FloatArray, angle: float) -> FloatArray:
+    a = np.asarray(axis) / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    rotation: FloatArray = np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
+    return rotation

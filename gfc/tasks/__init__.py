@@ -1,0 +1,21 @@
+"""Benchmark tasks: seeded scene samplers with hand-written reference actions."""
+
+from __future__ import annotations
+
+from gfc.tasks import hammer_place
+from gfc.tasks.base import Sampler, TaskInstance
+
+TASKS: dict[str, Sampler] = {
+    "hammer_place": hammer_place.sample,
+}
+
+
+def sample_task(name: str, seed: int) -> TaskInstance:
+    try:
+        sampler = TASKS[name]
+    except KeyError:
+        raise KeyError(f"unknown task {name!r} (known: {', '.join(sorted(TASKS))})") from None
+    return sampler(seed)
+
+
+__all__ = ["TASKS", "TaskInstance", "sample_task"]

@@ -20,10 +20,10 @@ Rgb = npt.NDArray[np.uint8]
 class Camera:
     """Looking at the workspace from in front of the robots, slightly above."""
 
-    target: tuple[float, float, float] = (0.45, 0.0, 0.70)
-    distance: float = 1.45
+    target: tuple[float, float, float] = (0.40, 0.0, 0.80)
+    distance: float = 1.55
     yaw: float = 90.0  # degrees: PyBullet's yaw 90 looks along -x, back at the robots
-    pitch: float = -35.0
+    pitch: float = -30.0
     width: int = 640
     height: int = 480
     fov: float = 55.0

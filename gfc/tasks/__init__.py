@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from gfc.tasks import hammer_place
+from gfc.tasks import hammer_nail, hammer_place
 from gfc.tasks.base import Sampler, TaskInstance
 
 TASKS: dict[str, Sampler] = {
     "hammer_place": hammer_place.sample,
+    "hammer_nail": hammer_nail.sample,
 }
 
 

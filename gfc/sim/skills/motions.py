@@ -21,12 +21,13 @@ from gfc.sim.control import (
 from gfc.sim.ik import solve_ik
 from gfc.sim.motion import plan_motion
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.panda import arm_joints, ee_matrix
+from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, arm_joints, ee_matrix
 from gfc.sim.world import World, object_matrix, sync_mirror
 
 APPROACH = 0.10  # m: pre-grasp offset back along the gripper's approach axis
 LIFT = 0.12  # m: how far a pick lifts the object
 IK_ATTEMPTS = 24
+IK_CANDIDATES = 4  # collision-free solutions to choose from
 
 
 @dataclass
@@ -62,22 +63,42 @@ def collision_fn(
     return make_collision_fn(ctx.world, robots, carried_by(ctx, robots), fingers, allowed)
 
 
+def limit_margin(q: FloatArray) -> float:
+    """Smallest distance to a joint limit, as a fraction of that joint's range."""
+    span = UPPER_LIMITS - LOWER_LIMITS
+    return float(np.min(np.minimum(q - LOWER_LIMITS, UPPER_LIMITS - q) / span))
+
+
 def free_ik(
     ctx: SkillContext, robot: str, world_from_ee: FloatArray, check: CollisionFn, what: str
 ) -> FloatArray:
-    """A collision-free IK solution, or type 1 (none exists) / type 2 (all of them collide)."""
-    seed = joints(ctx, robot)
+    """A collision-free IK solution, or type 1 (none exists) / type 2 (all of them collide).
+
+    Several solutions are gathered (from the current joints, from home, from random starts) and
+    the one farthest from the joint limits wins: a straight lift or a pour that follows must not
+    start at a limit.
+    """
+    current = joints(ctx, robot)
+    seeds = [current, np.asarray(HOME_JOINTS)]
+    found: list[FloatArray] = []
     collisions: list[str] = []
     for attempt in range(IK_ATTEMPTS):
-        q = solve_ik(
-            ctx.world, robot, world_from_ee, seed, ctx.rng, restarts=0 if attempt == 0 else 1
-        )
+        seed = seeds[attempt] if attempt < len(seeds) else None
+        if seed is not None:
+            q = solve_ik(ctx.world, robot, world_from_ee, seed, ctx.rng, restarts=0)
+        else:
+            q = solve_ik(ctx.world, robot, world_from_ee, current, ctx.rng, restarts=1)
         if q is None:
             continue
         hit = check(q)
         if hit is None:
-            return q
-        collisions.append(f"{hit.moving} with {hit.other}")
+            found.append(q)
+            if len(found) == IK_CANDIDATES:
+                break
+        else:
+            collisions.append(f"{hit.moving} with {hit.other}")
+    if found:
+        return max(found, key=limit_margin)
     if collisions:
         raise SkillFailure(
             FailureType.PATH, f"{robot}: every IK solution for {what} collides ({collisions[0]})"

@@ -1,0 +1,100 @@
+"""Hammer Nail (paper: 11 steps): the lid-and-cube prelude, the hammer handover of Hammer Place
+(the left arm must pick it near the head so that the right arm can take the handle end), then
+the left arm picks the nail (from the side, low, so that its top stays free), holds it up, the
+right arm brings the hammer head over it, and strikes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gfc.kinds import object_kind
+from gfc.plan.schema import PlanRequest
+from gfc.tasks.base import (
+    DOWN,
+    LEFT_BASE,
+    RIGHT_BASE,
+    TABLE_Z,
+    TaskInstance,
+    frame,
+    grasp9,
+    in_base,
+    pose7,
+    robots_json,
+    rot_z,
+)
+from gfc.tasks.boxes import prelude_actions, prelude_objects, prelude_skeleton
+from gfc.tasks.hammer_place import (
+    HANDLE_Z,
+    LEFT_GRASP_X,
+    RIGHT_GRASP_X,
+    hammer_handover_skeleton,
+    hammer_objects,
+    handover_pose,
+)
+
+NAIL_GRASP_Z = 0.045  # low on the nail, from the side (the hand reaches 3.6 cm below)
+STRIKE_GAP = 0.03  # m between the head's lower face and the nail top before the blow
+# Side grasp: approach (z) along world +x, fingers (y) along world -y, the hand's x axis up.
+SIDE = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]]).T
+
+
+def sample(seed: int) -> TaskInstance:
+    rng = np.random.default_rng(seed)
+    nx, ny = 0.54 + rng.uniform(-0.02, 0.02), 0.05 + rng.uniform(-0.02, 0.02)
+    objects = [
+        *prelude_objects(rng),
+        *hammer_objects(rng),
+        {"name": "nail", "kind": "nail", "pose": pose7(nx, ny, TABLE_Z)},
+    ]
+    plan = PlanRequest.model_validate(
+        {
+            "scene": {"robots": robots_json(), "objects": objects},
+            "skeleton": [
+                *prelude_skeleton(),
+                *hammer_handover_skeleton(),
+                {"skill": "pick", "robot": "left", "object": "nail"},
+                {"skill": "move", "robot": "left", "object": "nail"},
+                {"skill": "move", "robot": "right", "object": "hammer"},
+                {"skill": "strike", "robot": "right", "object": "hammer", "target": "nail"},
+            ],
+            "goal": [
+                {
+                    "type": "aligned",
+                    "object": "hammer",
+                    "frame": "head",
+                    "target": "nail",
+                    "target_frame": "top",
+                    "tolerance": 0.02,
+                }
+            ],
+            "options": {"seed": seed},
+        }
+    )
+    handover = handover_pose(rng)
+    # Where the nail is held up for the blow (world), and the hammer pose that puts the head's
+    # lower face STRIKE_GAP above the nail top, handle towards the right arm.
+    nail_at = frame(
+        [0.48 + rng.uniform(-0.03, 0.03), 0.08 + rng.uniform(-0.03, 0.03), TABLE_Z + 0.15],
+        np.eye(3),
+    )
+    nail_from_grasp = frame([0.0, 0.0, NAIL_GRASP_Z], SIDE)
+    nail_top = (nail_at @ np.array([*object_kind("nail").frames["top"][:3], 1.0]))[:3]
+    head = object_kind("hammer").frames["head"][:3]
+    half_z = object_kind("hammer").half_extents[2]
+    hammer_yaw = math.pi / 2
+    hammer_at = frame([0.0, 0.0, 0.0], rot_z(hammer_yaw))
+    head_world = hammer_at[:3, :3] @ np.asarray(head)
+    hammer_at[:3, 3] = nail_top + [0.0, 0.0, STRIKE_GAP + half_z] - head_world
+    actions = [
+        *prelude_actions(),
+        grasp9([LEFT_GRASP_X, 0.0, HANDLE_Z]),
+        in_base(LEFT_BASE, handover),
+        grasp9([RIGHT_GRASP_X, 0.0, HANDLE_Z]),
+        grasp9([0.0, 0.0, NAIL_GRASP_Z], SIDE),
+        in_base(LEFT_BASE, nail_at @ nail_from_grasp),
+        in_base(RIGHT_BASE, hammer_at @ frame([RIGHT_GRASP_X, 0.0, HANDLE_Z], DOWN)),
+        None,
+    ]
+    return TaskInstance("hammer_nail", seed, plan, actions)

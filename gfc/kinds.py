@@ -107,8 +107,8 @@ OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
         "a pot with two handles along +y and -y",
         half_extents=(0.12, 0.2, 0.06),
         frames={
-            "handle_left": (0.0, 0.17, 0.1, 0.0, 0.0, 0.0, 1.0),
-            "handle_right": (0.0, -0.17, 0.1, 0.0, 0.0, 0.0, 1.0),
+            "handle_left": (0.0, 0.185, 0.1, 0.0, 0.0, 0.0, 1.0),
+            "handle_right": (0.0, -0.185, 0.1, 0.0, 0.0, 0.0, 1.0),
         },
         inner_half_extents=(0.1, 0.1, 0.06),
     ),

@@ -165,7 +165,7 @@ def _pot() -> Recipe:
     floor_half_z = 0.006
     parts = [Box((0.0, 0.0, floor_half_z), (hx, hx, floor_half_z), STEEL)]
     parts += _ring(inner, 2 * hz - 2 * floor_half_z, hx - inner, STEEL, z0=2 * floor_half_z)
-    # Handles: a bar along x at the rim height at y = +/-0.17 (the kind's named frames), joined
+    # Handles: a bar along x just below the rim at y = +/-0.185 (the kind's named frames), joined
     # to the wall by a bracket. The grip is 2 cm wide so that the fingers close across it.
     for side, frame in ((1.0, "handle_left"), (-1.0, "handle_right")):
         fx, fy, fz = object_kind("pot").frames[frame][:3]

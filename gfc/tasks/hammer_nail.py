@@ -86,7 +86,7 @@ def sample(seed: int) -> TaskInstance:
     hammer_yaw = math.pi / 2
     hammer_at = frame([0.0, 0.0, 0.0], rot_z(hammer_yaw))
     head_world = hammer_at[:3, :3] @ np.asarray(head)
-    hammer_at[:3, 3] = nail_top + [0.0, 0.0, STRIKE_GAP + half_z] - head_world
+    hammer_at[:3, 3] = nail_top + np.array([0.0, 0.0, STRIKE_GAP + half_z]) - head_world
     actions = [
         *prelude_actions(),
         grasp9([LEFT_GRASP_X, 0.0, HANDLE_Z]),

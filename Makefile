@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 
 ## run: the main job
 run: $(STAMP)
-	$(BIN)/gfc validate examples/hammer_place.json
+	$(BIN)/gfc validate gfc/examples/hammer_place.json
 	$(BIN)/gfc bench latency --json docs/bench/latency.json
 
 ## test: lint, type-check and the whole test suite (slow tests included)

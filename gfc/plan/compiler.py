@@ -446,7 +446,15 @@ class _Compiler:
             if kind is None or kind.inner_half_extents is None:
                 self.error(f"{loc}.target", f"{spec.target!r} is not a container (open boxes, mugs, cups, pots are)")
                 return
-            params.update(inner_half_extents=list(kind.inner_half_extents), margin=spec.margin, tolerance=0.01)
+            if spec.object not in self.objects:
+                self.error(f"{loc}.object", f"{spec.object!r} is a robot; only objects go inside containers")
+                return
+            params.update(
+                object_kind=self.objects[spec.object].kind,
+                inner_half_extents=list(kind.inner_half_extents),
+                margin=spec.margin,
+                tolerance=0.01,
+            )
         elif isinstance(spec, Aligned):
             f1 = self.kind_frame(spec.object, spec.frame, f"{loc}.frame")
             f2 = self.kind_frame(spec.target, spec.target_frame, f"{loc}.target_frame")

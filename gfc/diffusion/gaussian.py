@@ -1,0 +1,93 @@
+"""Analytic Gaussian "skill models" with exact denoisers, for testing the composition.
+
+For data ``x0 ~ N(mu, Sigma)`` and ``x = x0 + sigma * eps`` the optimal denoiser is
+``E[x0 | x] = mu + Sigma (Sigma + sigma^2 I)^-1 (x - mu)``, and for a subset S of tokens (the
+marginal the planner asks for with ``present``) the same formula on the S block. A product of
+such factors is Gaussian in closed form, so sampled moments can be checked against it.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from gfc.diffusion.denoiser import TokenLayout
+
+
+class GaussianFactor:
+    """One factor: a Gaussian over the flat concatenation of its tokens."""
+
+    def __init__(self, layout: TokenLayout, mean: torch.Tensor, cov: torch.Tensor) -> None:
+        if mean.shape != (layout.total_dim,) or cov.shape != (layout.total_dim, layout.total_dim):
+            raise ValueError(f"mean/cov shapes {tuple(mean.shape)}/{tuple(cov.shape)} do not fit {layout}")
+        if not torch.allclose(cov, cov.T) or torch.linalg.eigvalsh(cov).min() <= 0:
+            raise ValueError("covariance must be symmetric positive definite")
+        self.layout, self.mean, self.cov = layout, mean.double(), cov.double()
+
+    def dims_of(self, present: torch.Tensor) -> torch.Tensor:
+        """Flat dimension indices of the present tokens. present: (T,) bool -> (K,) long."""
+        idx = [torch.arange(o, o + d) for o, d, p in zip(self.layout.offsets, self.layout.dims, present.tolist(), strict=True) if p]
+        return torch.cat(idx)
+
+    def denoise_flat(self, x: torch.Tensor, sigma: torch.Tensor, present: torch.Tensor) -> torch.Tensor:
+        """x: (R, total_dim), sigma: (R,), present: (T,) bool (one pattern for all rows)."""
+        dims = self.dims_of(present)
+        mu = self.mean[dims]
+        cov = self.cov[dims][:, dims]
+        eye = torch.eye(len(dims), dtype=torch.float64)
+        xs = x[:, dims].double() - mu  # (R, K)
+        out = x.clone()
+        if bool((sigma == sigma[0]).all()):  # one level for all rows: one K x K solve
+            gain = torch.linalg.solve(cov + float(sigma[0]) ** 2 * eye, cov)  # (K, K)
+            out[:, dims] = (mu + xs @ gain).to(x.dtype)
+            return out
+        noisy_cov = cov.unsqueeze(0) + sigma.double().view(-1, 1, 1) ** 2 * eye  # (R, K, K)
+        sol = torch.linalg.solve(noisy_cov, xs.unsqueeze(-1)).squeeze(-1)  # (R, K)
+        out[:, dims] = (mu + sol @ cov).to(x.dtype)  # cov symmetric: (cov @ sol^T)^T
+        return out
+
+
+class GaussianBank:
+    """M Gaussian factors behind the planner's stacked interface (``StackedDenoiserProtocol``)."""
+
+    def __init__(self, factors: list[GaussianFactor], max_dim: int | None = None) -> None:
+        self.factors = factors
+        self.layouts = [f.layout for f in factors]
+        self.max_dim = max_dim or max(max(layout.dims) for layout in self.layouts)
+
+    @property
+    def singles(self) -> list[GaussianBank]:
+        return [GaussianBank([f], self.max_dim) for f in self.factors]
+
+    def denoise(
+        self,
+        x: torch.Tensor,
+        sigma: torch.Tensor,
+        present: torch.Tensor,
+        roles: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        """Same contract as ``StackedDenoiser.denoise``; positions are scattered to their roles."""
+        m_count, b, t_in, d = x.shape
+        sigma = sigma.expand(m_count, b)
+        if roles is None:
+            roles = torch.arange(t_in).expand(m_count, b, t_in)
+        out = x.clone()
+        for m, factor in enumerate(self.factors):
+            t = factor.layout.n_tokens
+            # Put every position into its role slot: (R, T_model, D), absent slots stay zero.
+            slots = x.new_zeros(b, t, d)
+            pres = torch.zeros(b, t, dtype=torch.bool)
+            rows = torch.arange(b).unsqueeze(1).expand(b, t_in)  # (R, T_in) row of each position
+            keep = present[m]
+            slots[rows[keep], roles[m][keep]] = x[m][keep]
+            pres[rows[keep], roles[m][keep]] = True
+            flat = factor.layout.unpad(slots)  # (R, total)
+            patterns, inverse = torch.unique(pres, dim=0, return_inverse=True)
+            result = flat.clone()
+            for p, pattern in enumerate(patterns):
+                if not pattern.any():
+                    continue
+                sel = inverse == p
+                result[sel] = factor.denoise_flat(flat[sel], sigma[m, sel], pattern)
+            denoised = factor.layout.pad(result, self.max_dim)  # (R, T_model, D)
+            out[m][keep] = denoised[rows[keep], roles[m][keep]]
+        return out

@@ -1,0 +1,313 @@
+"""The composed score of a compiled factor graph (the paper's Algorithm 1, batched).
+
+Variables
+    ``z`` (B, N): every free node version (world frame) and every action, for B candidates.
+    Known nodes (the observed scene) are not variables: at noise level ``sigma`` they enter the
+    models as ``observed + sigma * eps`` with one fixed ``eps`` per candidate, so model inputs
+    look like training inputs along a consistent forward trajectory.
+
+Score of the joint distribution (paper Eq. 5 / Algorithm 1)
+    sum over temporal factors of the skill model's score (mapped from the acting robot's frame to
+    the world frame), minus the compensation for nodes shared by temporal factors, plus the
+    guidance of spatial factors (``gfc.constraints``, noised to the current level).
+
+Compensation
+    The paper divides by ``sqrt(p_1(v) p_2(v))`` for a node ``v`` shared by two temporal factors,
+    i.e. subtracts half of each factor's *marginal* score of ``v``. We get the marginal by
+    evaluating the skill model with only ``v``'s token present (models are trained with random
+    token dropping). For a node in ``d`` temporal factors (a pot lifted by two arms and then
+    moved by both: d = 4) the Bethe generalisation subtracts ``(d-1)/d`` of each marginal score;
+    for d = 2 that is the paper's 1/2. See docs/adr/0001-composition.md.
+
+Batching
+    All factor instances (and marginal queries) of one skill model are rows of one batch, and all
+    skill models of the plan are stacked along a model dimension, so one sampling step is *one*
+    network call. ``per_factor=True`` evaluates the same math with one call per factor (the
+    benchmark's baseline).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import torch
+
+from gfc.constraints import scaled_residual
+from gfc.diffusion.denoiser import StackedDenoiserProtocol
+from gfc.geometry import POSE9_DIM, pose9_frame_map
+from gfc.plan.graph import CompiledPlan
+
+Compensation = Literal["marginal", "none"]
+
+
+@dataclass(frozen=True)
+class VariableLayout:
+    """Where each free node, action and known node lives in the joint vectors."""
+
+    node_offset: dict[int, int]  # free node id -> offset in z
+    action_offset: dict[int, int]  # action id -> offset in z
+    known_offset: dict[int, int]  # known node id -> offset in the known vector
+    free_dim: int
+    known_dim: int
+
+    @staticmethod
+    def of(plan: CompiledPlan) -> VariableLayout:
+        node_offset, action_offset, known_offset = {}, {}, {}
+        free = known = 0
+        for n in plan.nodes:
+            if n.known:
+                known_offset[n.id] = known
+                known += n.dim
+            else:
+                node_offset[n.id] = free
+                free += n.dim
+        for a in plan.actions:
+            action_offset[a.id] = free
+            free += a.dim
+        return VariableLayout(node_offset, action_offset, known_offset, free, known)
+
+
+def _token_frame(dim: int, world_from_model: np.ndarray, is_pose: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Affine map world -> model frame for one token: (dim, dim) orthogonal matrix and offset."""
+    a, b = np.eye(dim), np.zeros(dim)
+    if is_pose:
+        a9, b9 = pose9_frame_map(world_from_model)
+        a[:9, :9], b[:9] = a9, b9
+    return a, b
+
+
+class ComposedScore:
+    """Index tensors for one plan and its model stack; evaluates the joint score.
+
+    The stack has one entry per temporal factor (F entries; a model used twice appears twice),
+    so every entry sees exactly B rows (one per candidate) and no padding across models. Each
+    factor's marginal queries for shared nodes form a second batch of single-token rows:
+    (F, Q*B, 1, D). Shapes: F factors, B candidates, T tokens, Q queries per factor, D dims.
+    """
+
+    def __init__(
+        self,
+        plan: CompiledPlan,
+        bank: StackedDenoiserProtocol,
+        known_values: torch.Tensor | None = None,
+        compensation: Compensation = "marginal",
+    ) -> None:
+        if len(bank.layouts) != len(plan.temporal):
+            raise ValueError(f"the model stack has {len(bank.layouts)} entries for {len(plan.temporal)} factors")
+        self.plan = plan
+        self.bank = bank
+        self.layout = VariableLayout.of(plan)
+        n_factors, d_max = len(plan.temporal), bank.max_dim
+        n_tokens = max(len(f.tokens) for f in plan.temporal)
+        degree = plan.temporal_degree()
+        self.n_factors, self.n_tokens, self.d_max = n_factors, n_tokens, d_max
+
+        full_dim = self.layout.free_dim + self.layout.known_dim
+        self.dummy = full_dim  # index of an extra zero column for padding
+        src = np.full((n_factors, n_tokens, d_max), self.dummy, dtype=np.int64)
+        weight = np.zeros((n_factors, n_tokens, d_max), dtype=np.float32)
+        frame_a = np.tile(np.eye(d_max, dtype=np.float32), (n_factors, n_tokens, 1, 1))
+        frame_b = np.zeros((n_factors, n_tokens, d_max), dtype=np.float32)
+        present = np.zeros((n_factors, n_tokens), dtype=bool)
+        queries: list[list[tuple[int, float]]] = [[] for _ in range(n_factors)]
+
+        for f, factor in enumerate(plan.temporal):
+            want = tuple(t.dim for t in factor.tokens)
+            if bank.layouts[f].dims != want:
+                raise ValueError(
+                    f"step {factor.step}: model {factor.model!r} has token dims "
+                    f"{bank.layouts[f].dims}, the plan needs {want}"
+                )
+            world_from_model = np.asarray(factor.world_from_model)
+            for t, token in enumerate(factor.tokens):
+                if token.node is not None:
+                    node = plan.nodes[token.node]
+                    if node.known:
+                        start = self.layout.free_dim + self.layout.known_offset[node.id]
+                    else:
+                        start = self.layout.node_offset[node.id]
+                    is_pose = node.dim >= POSE9_DIM  # robot and object states start with a pose9
+                    free = not node.known
+                    if free and compensation == "marginal" and degree[node.id] >= 2:
+                        d = degree[node.id]
+                        queries[f].append((t, -(d - 1) / d))
+                else:
+                    assert token.action is not None
+                    start = self.layout.action_offset[token.action]
+                    is_pose, free = False, True
+                src[f, t, : token.dim] = np.arange(start, start + token.dim)
+                a, b = _token_frame(token.dim, world_from_model, is_pose)
+                frame_a[f, t, : token.dim, : token.dim] = a
+                frame_b[f, t, : token.dim] = b
+                present[f, t] = True
+                if free:
+                    weight[f, t, : token.dim] = 1.0
+
+        n_queries = max(1, max(len(q) for q in queries))
+        query_token = np.zeros((n_factors, n_queries), dtype=np.int64)
+        query_weight = np.zeros((n_factors, n_queries), dtype=np.float32)
+        for f, qs in enumerate(queries):
+            for q, (t, w) in enumerate(qs):
+                query_token[f, q], query_weight[f, q] = t, w
+        self.queries = queries
+        self.has_queries = any(queries)
+
+        dtype = torch.get_default_dtype()
+        self.src = torch.from_numpy(src)  # (F, T, D) index into [z | known | 0]
+        self.weight = torch.from_numpy(weight).to(dtype)  # (F, T, D)
+        self.frame_a = torch.from_numpy(frame_a).to(dtype)  # (F, T, D, D) world -> model
+        self.frame_b = torch.from_numpy(frame_b).to(dtype)  # (F, T, D)
+        self.present = torch.from_numpy(present)  # (F, T)
+        self.query_token = torch.from_numpy(query_token)  # (F, Q)
+        qt = self.query_token
+        rows = torch.arange(n_factors).unsqueeze(1)
+        self.query_src = self.src[rows, qt]  # (F, Q, D)
+        self.query_frame_a = self.frame_a[rows, qt]  # (F, Q, D, D)
+        self.query_weight = (torch.from_numpy(query_weight).to(dtype)[..., None] * self.weight[rows, qt].ne(0))  # (F, Q, D)
+        self.known_values = known_values if known_values is not None else self._known_from_plan()
+        self._spatial = [(f, [self._node_getter(n) for n in f.nodes]) for f in plan.spatial]
+
+    def _known_from_plan(self) -> torch.Tensor:
+        values = torch.zeros(self.layout.known_dim)
+        for node in self.plan.known:
+            assert node.value is not None
+            o = self.layout.known_offset[node.id]
+            values[o : o + node.dim] = torch.tensor(node.value)
+        return values
+
+    def _node_getter(self, node_id: int) -> tuple[bool, int, int]:
+        node = self.plan.nodes[node_id]
+        if node.known:
+            return True, self.layout.known_offset[node_id], node.dim
+        return False, self.layout.node_offset[node_id], node.dim
+
+    # ------------------------------------------------------------------ model scores
+    def gather(self, full: torch.Tensor) -> torch.Tensor:
+        """[z | known] (B, N+K) -> model-frame factor inputs (F, B, T, D)."""
+        padded = torch.cat([full, full.new_zeros(full.shape[0], 1)], dim=1)
+        x = padded[:, self.src]  # (B, F, T, D)
+        return torch.einsum("ftij,bftj->fbti", self.frame_a, x) + self.frame_b.unsqueeze(1)
+
+    def query_inputs(self, x: torch.Tensor) -> torch.Tensor:
+        """The single-token rows of the marginal queries. (F, B, T, D) -> (F, Q*B, 1, D)."""
+        f, b, _, d = x.shape
+        idx = self.query_token[:, :, None, None].expand(f, -1, b, d)  # (F, Q, B, D)
+        xq = x.permute(0, 2, 1, 3).gather(1, idx)  # (F, Q, B, D)
+        return xq.reshape(f, -1, 1, d)
+
+    def scatter(self, score_full: torch.Tensor, score_query: torch.Tensor | None) -> torch.Tensor:
+        """Scores in model frames -> the weighted world-frame score on z. (B, N)
+
+        score_full: (F, B, T, D); score_query: (F, Q*B, 1, D) or None.
+        """
+        b = score_full.shape[1]
+        # Scores transform with A^T when inputs transform with A (A orthogonal).
+        s = torch.einsum("ftji,fbtj->bfti", self.frame_a, score_full) * self.weight
+        out = score_full.new_zeros(b, self.dummy + 1)
+        out.scatter_add_(1, self.src.reshape(1, -1).expand(b, -1), s.reshape(b, -1))
+        if score_query is not None:
+            f, _, _, d = score_query.shape
+            sq = score_query.reshape(f, -1, b, d)  # (F, Q, B, D)
+            sq = torch.einsum("fqji,fqbj->bfqi", self.query_frame_a, sq) * self.query_weight
+            out.scatter_add_(1, self.query_src.reshape(1, -1).expand(b, -1), sq.reshape(b, -1))
+        return out[:, : self.layout.free_dim]
+
+    def evaluate(
+        self, x: torch.Tensor, xq: torch.Tensor | None, sigma: torch.Tensor, per_factor: bool
+    ) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """Denoise factor rows (F, B, T, D) and query rows (F, Q*B, 1, D)."""
+        f, b, t, _ = x.shape
+        present = self.present.unsqueeze(1).expand(f, b, t)
+        q_roles = None
+        if xq is not None:
+            q_roles = self.query_token.unsqueeze(2).expand(-1, -1, b).reshape(f, -1, 1)
+        if not per_factor:
+            level = sigma.reshape(1, 1).expand(f, 1)  # one noise level for every row
+            out = self.bank.denoise(x, level, present)
+            out_q = None
+            if xq is not None:
+                q_present = torch.ones(xq.shape[:3], dtype=torch.bool)
+                out_q = self.bank.denoise(xq, level, q_present, q_roles)
+            return out, out_q
+        singles = getattr(self.bank, "singles", None)
+        if singles is None:
+            raise ValueError("per-factor evaluation needs a stack with per-factor models ('singles')")
+        out = x.clone()
+        out_q = None if xq is None else xq.clone()
+        for i in range(f):
+            n_tok = len(self.plan.temporal[i].tokens)
+            out[i : i + 1, :, :n_tok] = singles[i].denoise(
+                x[i : i + 1, :, :n_tok], sigma.reshape(1, 1), present[i : i + 1, :, :n_tok]
+            )
+            n_q = len(self.queries[i])
+            if xq is not None and out_q is not None and n_q:
+                rows = slice(0, n_q * b)
+                assert q_roles is not None
+                out_q[i : i + 1, rows] = singles[i].denoise(
+                    xq[i : i + 1, rows],
+                    sigma.reshape(1, 1),
+                    torch.ones(1, n_q * b, 1, dtype=torch.bool),
+                    q_roles[i : i + 1, rows],
+                )
+        return out, out_q
+
+    def model_score(
+        self, z: torch.Tensor, sigma: torch.Tensor, known_noise: torch.Tensor, per_factor: bool = False
+    ) -> torch.Tensor:
+        """Sum of temporal factor scores with compensation, on z. z: (B, N) -> (B, N)."""
+        full = torch.cat([z, self.known_values + sigma * known_noise], dim=1)
+        x = self.gather(full)
+        xq = self.query_inputs(x) if self.has_queries else None
+        denoised, denoised_q = self.evaluate(x, xq, sigma, per_factor)
+        score_q = None
+        if xq is not None and denoised_q is not None:
+            score_q = (denoised_q - xq) / sigma**2
+        return self.scatter((denoised - x) / sigma**2, score_q)
+
+    # ------------------------------------------------------------------ spatial factors
+    def node_values(self, z: torch.Tensor, node_id: int) -> torch.Tensor:
+        known, offset, dim = self._node_getter(node_id)
+        if known:
+            return self.known_values[offset : offset + dim].expand(z.shape[0], dim)
+        return z[:, offset : offset + dim]
+
+    def spatial_residuals(self, z: torch.Tensor) -> list[torch.Tensor]:
+        """Tolerance-scaled residuals of every spatial factor. Each (B, R_f)."""
+        out = []
+        for factor, getters in self._spatial:
+            nodes = [
+                self.known_values[o : o + d].expand(z.shape[0], d) if known else z[:, o : o + d]
+                for known, o, d in getters
+            ]
+            out.append(scaled_residual(factor.type, nodes, factor.params))
+        return out
+
+    def spatial_cost(self, z: torch.Tensor) -> torch.Tensor:
+        """Per-candidate energy ``sum weight/2 |r|^2`` of all spatial factors. (B,)"""
+        cost = z.new_zeros(z.shape[0])
+        for (factor, _), r in zip(self._spatial, self.spatial_residuals(z), strict=True):
+            cost = cost + 0.5 * factor.params.get("weight", 1.0) * (r**2).sum(-1)
+        return cost
+
+    def guidance(self, z: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
+        """Score of the noised spatial factors: ``-grad sum w/(1 + w sigma^2) |r|^2 / 2``."""
+        if not self._spatial:
+            return torch.zeros_like(z)
+        with torch.enable_grad():
+            zg = z.detach().requires_grad_(True)
+            energy = zg.new_zeros(())
+            for (factor, _), r in zip(self._spatial, self.spatial_residuals(zg), strict=True):
+                w = factor.params.get("weight", 1.0) / factor.params.get("tolerance", 0.01) ** 2
+                # residuals are already divided by the tolerance: E = w_user/2 |r_scaled|^2
+                noised = factor.params.get("weight", 1.0) / (1.0 + factor.params.get("gain", 1.0) * w * sigma**2)
+                energy = energy + 0.5 * (noised * (r**2).sum(-1)).sum()
+            (grad,) = torch.autograd.grad(energy, zg)
+        return -grad
+
+    # ------------------------------------------------------------------ the composed model
+    def score(
+        self, z: torch.Tensor, sigma: torch.Tensor, known_noise: torch.Tensor, per_factor: bool = False
+    ) -> torch.Tensor:
+        return self.model_score(z, sigma, known_noise, per_factor) + self.guidance(z, sigma)

@@ -7,6 +7,7 @@ import typer
 from gfc.cli.bench import bench_app
 from gfc.cli.plan_commands import register_plan_commands
 from gfc.sim.cli import register_sim_commands, sim_app
+from skill_store.cli import skills_app
 
 app = typer.Typer(
     name="gfc",
@@ -27,6 +28,7 @@ register_plan_commands(app)
 register_sim_commands(app)
 app.add_typer(sim_app, name="sim")
 app.add_typer(bench_app, name="bench")
+app.add_typer(skills_app, name="skills")
 
 
 def main() -> None:

@@ -1,0 +1,1 @@
+"""Versioned, atomic, integrity-checked skill checkpoints (safetensors + manifest)."""

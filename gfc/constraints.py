@@ -87,12 +87,14 @@ def fixed_transform(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> to
 
 def yaw(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     (obj,) = nodes[:1]
-    return wrap_angle(yaw_of_transform(_pose_of(obj)) - params["yaw"]).unsqueeze(-1)
+    heading = yaw_of_transform(_pose_of(obj)) - float(params["yaw"])
+    return wrap_angle(heading).unsqueeze(-1)
 
 
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
     a, b = nodes
-    return (a[..., :3] - b[..., :3]).norm(dim=-1, keepdim=True)
+    diff = a[..., :3] - b[..., :3]
+    return (diff * diff).sum(dim=-1, keepdim=True).clamp_min(1e-12).sqrt()
 
 
 def near(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
@@ -123,4 +125,5 @@ RESIDUALS: dict[str, Residual] = {
 
 def scaled_residual(kind: str, nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """Residuals divided by the factor's tolerance: dimensionless, 1 = at tolerance. (B, R)"""
-    return RESIDUALS[kind](nodes, params) / params.get("tolerance", 0.01)
+    tolerance = float(params.get("tolerance", 0.01))
+    return RESIDUALS[kind](nodes, params) / tolerance

@@ -106,9 +106,9 @@ def pose9_to_pose7(vec: npt.ArrayLike) -> FloatArray:
 def rot6d_to_matrix_np(six: npt.ArrayLike) -> FloatArray:
     s = np.asarray(six, dtype=np.float64)
     a1, a2 = s[0:3], s[3:6]
-    b1 = a1 / max(np.linalg.norm(a1), 1e-9)
+    b1 = a1 / max(float(np.linalg.norm(a1)), 1e-9)
     a2 = a2 - np.dot(b1, a2) * b1
-    b2 = a2 / max(np.linalg.norm(a2), 1e-9)
+    b2 = a2 / max(float(np.linalg.norm(a2)), 1e-9)
     b3 = np.cross(b1, b2)
     return np.stack([b1, b2, b3], axis=1)
 
@@ -175,9 +175,7 @@ def relative_transform(world_from_a: torch.Tensor, world_from_b: torch.Tensor) -
     """``a_from_b = inv(world_from_a) @ world_from_b`` for rigid (..., 4, 4) transforms."""
     rot_a_t = world_from_a[..., :3, :3].transpose(-1, -2)
     rot = rot_a_t @ world_from_b[..., :3, :3]
-    trans = (rot_a_t @ (world_from_b[..., :3, 3] - world_from_a[..., :3, 3]).unsqueeze(-1)).squeeze(
-        -1
-    )
+    trans = (rot_a_t @ (world_from_b[..., :3, 3] - world_from_a[..., :3, 3]).unsqueeze(-1)).squeeze(-1)
     top = torch.cat([rot, trans.unsqueeze(-1)], dim=-1)
     bottom = torch.zeros_like(top[..., :1, :])
     bottom[..., 0, 3] = 1.0

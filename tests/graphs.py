@@ -7,16 +7,33 @@ import torch
 
 from gfc.diffusion.denoiser import TokenLayout
 from gfc.diffusion.gaussian import GaussianFactor
-from gfc.plan.graph import ActionVariable, CompiledPlan, FactorToken, NodeVersion, SpatialFactor, TemporalFactor
+from gfc.plan.graph import (
+    ActionVariable,
+    CompiledPlan,
+    FactorToken,
+    NodeVersion,
+    SpatialFactor,
+    TemporalFactor,
+)
 
 IDENTITY = tuple(tuple(float(i == j) for j in range(4)) for i in range(4))
 
 
-def vector_node(node_id: int, entity: str, version: int, dim: int, value: tuple[float, ...] | None = None) -> NodeVersion:
+def vector_node(
+    node_id: int, entity: str, version: int, dim: int, value: tuple[float, ...] | None = None
+) -> NodeVersion:
     return NodeVersion(node_id, entity, version, "object", "vector", dim, value is not None, value)
 
 
-def factor(step: int, model: str, pre: list[int], action: int | None, effect: list[int], dims: dict[int, int], action_dim: int = 1) -> TemporalFactor:
+def factor(
+    step: int,
+    model: str,
+    pre: list[int],
+    action: int | None,
+    effect: list[int],
+    dims: dict[int, int],
+    action_dim: int = 1,
+) -> TemporalFactor:
     tokens = [FactorToken("object", "pre", dims[n], node=n) for n in pre]
     if action is not None:
         tokens.append(FactorToken("action", "action", action_dim, action=action))
@@ -25,7 +42,10 @@ def factor(step: int, model: str, pre: list[int], action: int | None, effect: li
 
 
 def layout_of(f: TemporalFactor) -> TokenLayout:
-    return TokenLayout(tuple(t.dim for t in f.tokens), tuple("action" if t.action is not None else "object" for t in f.tokens))
+    return TokenLayout(
+        tuple(t.dim for t in f.tokens),
+        tuple("action" if t.action is not None else "object" for t in f.tokens),
+    )
 
 
 def random_gaussian(layout: TokenLayout, seed: int, scale: float = 0.6, floor: float = 0.3) -> GaussianFactor:
@@ -37,7 +57,12 @@ def random_gaussian(layout: TokenLayout, seed: int, scale: float = 0.6, floor: f
     return GaussianFactor(layout, mean, cov)
 
 
-def plan_of(nodes: list[NodeVersion], n_actions: int, factors: list[TemporalFactor], spatial: tuple[SpatialFactor, ...] = ()) -> CompiledPlan:
+def plan_of(
+    nodes: list[NodeVersion],
+    n_actions: int,
+    factors: list[TemporalFactor],
+    spatial: tuple[SpatialFactor, ...] = (),
+) -> CompiledPlan:
     actions = tuple(ActionVariable(i, i, ("a",)) for i in range(n_actions))
     return CompiledPlan(tuple(nodes), actions, tuple(factors), spatial, tuple((f.step,) for f in factors))
 

@@ -18,7 +18,7 @@ import torch
 
 from gfc.diffusion.gaussian import GaussianBank, GaussianFactor
 from gfc.plan.graph import CompiledPlan, SpatialFactor
-from gfc.planner.composed import ComposedScore, Compensation, VariableLayout
+from gfc.planner.composed import Compensation, ComposedScore, VariableLayout
 from gfc.planner.sampling import SamplingSettings, sample_graph
 from tests.graphs import InformationForm, factor, layout_of, plan_of, random_gaussian, vector_node
 
@@ -42,7 +42,12 @@ def token_dims(gf: GaussianFactor, token: int) -> list[int]:
     return list(range(o, o + d))
 
 
-def closed_form(plan: CompiledPlan, factors: list[GaussianFactor], compensation: Compensation, extra: InformationForm | None = None) -> tuple[np.ndarray, np.ndarray]:
+def closed_form(
+    plan: CompiledPlan,
+    factors: list[GaussianFactor],
+    compensation: Compensation,
+    extra: InformationForm | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     layout = VariableLayout.of(plan)
     form = extra or InformationForm(layout.free_dim)
     degree = plan.temporal_degree()
@@ -54,12 +59,16 @@ def closed_form(plan: CompiledPlan, factors: list[GaussianFactor], compensation:
         for t, token in enumerate(tf.tokens):
             if token.node is not None and degree[token.node] >= 2:
                 d = degree[token.node]
-                node_idx = list(range(layout.node_offset[token.node], layout.node_offset[token.node] + token.dim))
+                node_idx = list(
+                    range(layout.node_offset[token.node], layout.node_offset[token.node] + token.dim)
+                )
                 form.add_marginal(gf, token_dims(gf, t), node_idx, -(d - 1) / d)
     return form.moments()
 
 
-def sample(plan: CompiledPlan, factors: list[GaussianFactor], compensation: Compensation, seed: int = 0) -> np.ndarray:
+def sample(
+    plan: CompiledPlan, factors: list[GaussianFactor], compensation: Compensation, seed: int = 0
+) -> np.ndarray:
     composed = ComposedScore(plan, GaussianBank(factors), compensation=compensation)
     with torch.no_grad():
         z = sample_graph(composed, N_SAMPLES, SETTINGS, torch.Generator().manual_seed(seed))
@@ -95,7 +104,10 @@ def pot() -> tuple[CompiledPlan, list[GaussianFactor]]:
     f2 = factor(1, "right", [1, 2], 1, [4, 5], dims)
     plan = plan_of(nodes, 2, [f1, f2])
     # Tight marginals on the pot make double counting visible.
-    return plan, [random_gaussian(layout_of(f1), 3, floor=0.2), random_gaussian(layout_of(f2), 4, floor=0.2)]
+    return plan, [
+        random_gaussian(layout_of(f1), 3, floor=0.2),
+        random_gaussian(layout_of(f2), 4, floor=0.2),
+    ]
 
 
 @pytest.mark.slow
@@ -116,7 +128,13 @@ def test_parallel_pair_joined_by_spatial_factor() -> None:
     f2 = factor(1, "right", [2, 3], 1, [6, 7], dims)
     offset = [0.5, -0.25]
     tolerance = 0.5  # energy precision 1 / 0.5^2 = 4 per dimension
-    spatial = SpatialFactor("offset", "constraint", 0, (5, 7), {"offset": offset, "tolerance": tolerance, "weight": 1.0, "gain": 2.0})
+    spatial = SpatialFactor(
+        "offset",
+        "constraint",
+        0,
+        (5, 7),
+        {"offset": offset, "tolerance": tolerance, "weight": 1.0, "gain": 2.0},
+    )
     plan = plan_of(nodes, 2, [f1, f2], (spatial,))
     factors = [random_gaussian(layout_of(f1), 5), random_gaussian(layout_of(f2), 6)]
 

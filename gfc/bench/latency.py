@@ -37,7 +37,11 @@ class Variant:
 
 VARIANTS = (
     Variant("batched", "all factors and marginal queries in one stacked call per step"),
-    Variant("per_factor", "one call per factor (and one for its marginal queries) per step", per_factor=True),
+    Variant(
+        "per_factor",
+        "one call per factor (and one for its marginal queries) per step",
+        per_factor=True,
+    ),
     Variant("batched_bf16", "batched, network matmuls in bfloat16", precision="bfloat16"),
     Variant("batched_no_compensation", "batched, without the marginal queries", compensation="none"),
 )
@@ -64,7 +68,11 @@ def run_latency(
     torch.set_num_threads(threads)
     request = parse_plan(load_example("hammer_nail"))
     request = request.model_copy(
-        update={"options": request.options.model_copy(update={"candidates": candidates, "top_k": 1, "steps": steps})}
+        update={
+            "options": request.options.model_copy(
+                update={"candidates": candidates, "top_k": 1, "steps": steps}
+            )
+        }
     )
     compiled = compile_plan(request)
     fp32 = random_library(compiled)
@@ -96,12 +104,23 @@ def run_latency(
         "threads": threads,
         "cpu": _cpu_name(),
         "torch": torch.__version__,
-        "marginal_queries_per_step": sum(1 for f in compiled.temporal for t in f.tokens if t.node is not None and compiled.temporal_degree().get(t.node, 0) >= 2 and not compiled.nodes[t.node].known),
+        "marginal_queries_per_step": sum(
+            1
+            for f in compiled.temporal
+            for t in f.tokens
+            if t.node is not None
+            and compiled.temporal_degree().get(t.node, 0) >= 2
+            and not compiled.nodes[t.node].known
+        ),
         "batched_seconds_median": medians["batched"],
         "per_factor_seconds_median": medians["per_factor"],
         "per_factor_over_batched": medians["per_factor"] / medians["batched"],
         "variants": {
-            v.name: {"description": v.description, "seconds_median": medians[v.name], "seconds": times[v.name]}
+            v.name: {
+                "description": v.description,
+                "seconds_median": medians[v.name],
+                "seconds": times[v.name],
+            }
             for v in VARIANTS
         },
     }
@@ -123,6 +142,8 @@ def latency_markdown(result: dict[str, Any], command: str) -> str:
     ]
     base = result["batched_seconds_median"]
     for name, v in result["variants"].items():
-        lines.append(f"| {name} | {v['description']} | {v['seconds_median']:.3f} | {v['seconds_median'] / base:.2f}x |")
+        lines.append(
+            f"| {name} | {v['description']} | {v['seconds_median']:.3f} | {v['seconds_median'] / base:.2f}x |"
+        )
     lines += ["", f"Command: `{command}`", ""]
     return "\n".join(lines)

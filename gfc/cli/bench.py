@@ -11,12 +11,16 @@ import typer
 from rich.console import Console
 from rich.progress import Progress
 
-bench_app = typer.Typer(help="Benchmarks: print a table, write it (and JSON) under docs/.", no_args_is_help=True)
+bench_app = typer.Typer(
+    help="Benchmarks: print a table, write it (and JSON) under docs/.", no_args_is_help=True
+)
 
 
 @bench_app.command()
 def latency(
-    json_file: Annotated[Path | None, typer.Option("--json", help="also write the raw result as JSON here")] = None,
+    json_file: Annotated[
+        Path | None, typer.Option("--json", help="also write the raw result as JSON here")
+    ] = None,
     markdown: Annotated[Path, typer.Option(help="where the table goes")] = Path("docs/bench/latency.md"),
     repeats: Annotated[int, typer.Option(min=1, help="timed runs per variant")] = 5,
     candidates: Annotated[int, typer.Option(min=1, help="candidates per plan")] = 10,

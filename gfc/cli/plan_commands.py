@@ -29,7 +29,12 @@ def print_summary(console: Console, compiled: CompiledPlan) -> None:
         table.add_column(col)
     for f in summary["temporal_factors"]:
         table.add_row(
-            str(f["step"]), f["model"], f["robot"], f["group"] or "", ", ".join(f["pre"]), ", ".join(f["effect"])
+            str(f["step"]),
+            f["model"],
+            f["robot"],
+            f["group"] or "",
+            ", ".join(f["pre"]),
+            ", ".join(f["effect"]),
         )
     console.print(table)
     if summary["spatial_factors"]:
@@ -48,8 +53,12 @@ def print_summary(console: Console, compiled: CompiledPlan) -> None:
 def register_plan_commands(app: typer.Typer) -> None:
     @app.command()
     def validate(
-        plan_file: Annotated[Path, typer.Argument(help="plan JSON: scene, skeleton, constraints, goal, options")],
-        as_json: Annotated[bool, typer.Option("--json", help="print the compiled graph (or the errors) as JSON")] = False,
+        plan_file: Annotated[
+            Path, typer.Argument(help="plan JSON: scene, skeleton, constraints, goal, options")
+        ],
+        as_json: Annotated[
+            bool, typer.Option("--json", help="print the compiled graph (or the errors) as JSON")
+        ] = False,
     ) -> None:
         """Check a plan and print the factor graph it compiles to.
 

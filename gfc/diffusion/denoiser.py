@@ -18,7 +18,6 @@ from torch import nn
 from gfc.diffusion.edm import edm_scalings, noise_conditioning
 from gfc.diffusion.network import TOKEN_TYPES, DiTConfig, DiTStack
 
-
 Precision = Literal["float32", "bfloat16"]
 
 
@@ -93,7 +92,14 @@ class StackedDenoiser(nn.Module):
     hold mean 0, std 1 and are ignored.
     """
 
-    def __init__(self, network: DiTStack, layouts: list[TokenLayout], mean: torch.Tensor, std: torch.Tensor) -> None:
+    token_types: torch.Tensor  # (M, T) buffer
+    mean: torch.Tensor  # (M, T, D_max) buffer
+    std: torch.Tensor  # (M, T, D_max) buffer
+    singles: list[StackedDenoiser] | None  # per-model stacks, for one-call-per-factor evaluation
+
+    def __init__(
+        self, network: DiTStack, layouts: list[TokenLayout], mean: torch.Tensor, std: torch.Tensor
+    ) -> None:
         super().__init__()
         if len(layouts) != network.n_models:
             raise ValueError(f"{len(layouts)} layouts for {network.n_models} models")
@@ -109,6 +115,7 @@ class StackedDenoiser(nn.Module):
         self.register_buffer("token_types", types)  # (M, T)
         self.register_buffer("mean", mean)  # (M, T, D_max)
         self.register_buffer("std", std)  # (M, T, D_max)
+        self.singles = None
 
     @property
     def config(self) -> DiTConfig:
@@ -132,7 +139,7 @@ class StackedDenoiser(nn.Module):
         types = self.token_types[models, roles]  # (M, B, T)
         s = edm_scalings(sigma[..., None, None], std)
         centred = x - mean
-        out = self.network(s.c_in * centred, noise_conditioning(sigma), roles, types, present)
+        out: torch.Tensor = self.network(s.c_in * centred, noise_conditioning(sigma), roles, types, present)
         # Preconditioning and the skip path stay in float32 whatever the network's precision:
         # at low noise the skip path carries almost all of the output.
         return mean + s.c_skip * centred + s.c_out * out.to(x.dtype)
@@ -165,7 +172,7 @@ class StackedDenoiser(nn.Module):
         layouts = [layout for m in models for layout in m.layouts]
         mean = padded([m.mean for m in models], 0.0)
         std = padded([m.std for m in models], 1.0)
-        return StackedDenoiser(network, layouts, mean, std)
+        return StackedDenoiser(network, layouts, mean, std).train(models[0].training)
 
 
 def single_model(

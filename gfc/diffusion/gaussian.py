@@ -25,7 +25,11 @@ class GaussianFactor:
 
     def dims_of(self, present: torch.Tensor) -> torch.Tensor:
         """Flat dimension indices of the present tokens. present: (T,) bool -> (K,) long."""
-        idx = [torch.arange(o, o + d) for o, d, p in zip(self.layout.offsets, self.layout.dims, present.tolist(), strict=True) if p]
+        idx = [
+            torch.arange(o, o + d)
+            for o, d, p in zip(self.layout.offsets, self.layout.dims, present.tolist(), strict=True)
+            if p
+        ]
         return torch.cat(idx)
 
     def denoise_flat(self, x: torch.Tensor, sigma: torch.Tensor, present: torch.Tensor) -> torch.Tensor:

@@ -76,6 +76,8 @@ class DiTStack(nn.Module):
         returns      (M, B, T, D_max)
     """
 
+    freqs: torch.Tensor  # sinusoid frequencies (buffer)
+
     def __init__(self, config: DiTConfig, n_models: int, n_tokens: int) -> None:
         super().__init__()
         self.config = config
@@ -90,7 +92,9 @@ class DiTStack(nn.Module):
         self.t_b1 = _param(m, h)
         self.t_w2 = _param(m, h, h, std=std)
         self.t_b2 = _param(m, h)
-        self.blocks = nn.ModuleList(_Block(m, h, mlp, config.heads, config.dropout) for _ in range(config.depth))
+        self.blocks = nn.ModuleList(
+            _Block(m, h, mlp, config.heads, config.dropout) for _ in range(config.depth)
+        )
         self.final_mod_w = _param(m, h, 2 * h)  # adaLN-Zero: starts at zero
         self.final_mod_b = _param(m, 2 * h)
         self.dec_w = _param(m, n_types, h, d)  # zero: the network starts by predicting nothing
@@ -162,9 +166,9 @@ class DiTStack(nn.Module):
         out = DiTStack(config, sum(s.n_models for s in stacks), n_tokens)
         with torch.no_grad():
             for name, param in out.named_parameters():
-                parts = []
+                parts: list[torch.Tensor] = []
                 for s in stacks:
-                    src = s.get_parameter(name)
+                    src: torch.Tensor = s.get_parameter(name)
                     if name == "role_emb" and src.shape[1] < n_tokens:
                         src = F.pad(src, (0, 0, 0, n_tokens - src.shape[1]))
                     parts.append(src)

@@ -86,7 +86,15 @@ def parse_plan(data: Any) -> PlanRequest:
         raise PlanError(issues) from None
 
 
-_UNION_TAGS = {"inside", "aligned", "fixed_transform", "yaw", "near", "far", "function-after[_unit_quaternion(), list[float]]"}
+_UNION_TAGS = {
+    "inside",
+    "aligned",
+    "fixed_transform",
+    "yaw",
+    "near",
+    "far",
+    "function-after[_unit_quaternion(), list[float]]",
+}
 
 
 def load_plan(path: str | Path) -> PlanRequest:
@@ -216,7 +224,11 @@ class _Compiler:
             pool = self.objects if want == "object" else self.robots
             if value not in pool:
                 other = self.robots if want == "object" else self.objects
-                what = f"a {'robot' if want == 'object' else 'object'}, not {'an object' if want == 'object' else 'a robot'}" if value in other else "not in the scene"
+                what = (
+                    f"a {'robot' if want == 'object' else 'object'}, not {'an object' if want == 'object' else 'a robot'}"
+                    if value in other
+                    else "not in the scene"
+                )
                 self.error(f"{loc}.{field_name}", f"{value!r} is {what}")
                 ok = False
             elif want == "object" and self.objects[value].kind not in OBJECT_KINDS:
@@ -249,7 +261,10 @@ class _Compiler:
         held = self.state.holding.get(step.robot)
         obj = step.object
         if spec.requires_free and held is not None:
-            self.error(f"{loc}.robot", f"robot {step.robot!r} already holds {held!r}; place or hand it over first")
+            self.error(
+                f"{loc}.robot",
+                f"robot {step.robot!r} already holds {held!r}; place or hand it over first",
+            )
         if spec.grasps and not spec.hands_over and obj is not None:
             holders = self.state.holders.get(obj, set())
             if holders:
@@ -264,13 +279,13 @@ class _Compiler:
                 self.error(f"{loc}.object", f"{obj!r} is fixed to the world and cannot be picked")
             elif not OBJECT_KINDS[o.kind].graspable:
                 self.error(f"{loc}.object", f"objects of kind {o.kind!r} cannot be grasped")
-        if spec.hands_over and obj is not None and step.from_ is not None:
-            if self.state.holding.get(step.from_) != obj:
-                actual = self.state.holding.get(step.from_)
-                self.error(
-                    f"{loc}.from",
-                    f"robot {step.from_!r} does not hold {obj!r} (it holds {actual!r}) and cannot hand it over",
-                )
+        giver = step.from_
+        if spec.hands_over and obj is not None and giver is not None and self.state.holding.get(giver) != obj:
+            actual = self.state.holding.get(giver)
+            self.error(
+                f"{loc}.from",
+                f"robot {giver!r} does not hold {obj!r} (it holds {actual!r}) and cannot hand it over",
+            )
         if spec.requires_held:
             if obj is None:
                 if spec.name == "move" and held is not None:
@@ -311,7 +326,12 @@ class _Compiler:
             self.state.holders[obj].discard(step.robot)
 
     def role_entity(self, step: Step, role: Role) -> str | None:
-        return {"robot": step.robot, "object": step.object, "target": step.target, "from": step.from_}[role]
+        return {
+            "robot": step.robot,
+            "object": step.object,
+            "target": step.target,
+            "from": step.from_,
+        }[role]
 
     def compile_stage(self, stage: list[int]) -> None:
         steps = [self.plan.skeleton[i] for i in stage]
@@ -320,7 +340,10 @@ class _Compiler:
         for i, step in zip(stage, steps, strict=True):
             spec = SKILLS.get(step.skill)
             if spec is None:
-                self.error(f"skeleton[{i}].skill", f"unknown skill {step.skill!r} (known: {', '.join(sorted(SKILLS))})")
+                self.error(
+                    f"skeleton[{i}].skill",
+                    f"unknown skill {step.skill!r} (known: {', '.join(sorted(SKILLS))})",
+                )
                 continue
             if not self.check_entities(i, step, spec):
                 continue
@@ -370,7 +393,9 @@ class _Compiler:
                     robot=step.robot,
                     group=step.group,
                     tokens=tuple(tokens),
-                    world_from_model=tuple(tuple(float(v) for v in row) for row in self.world_from_base(step.robot)),
+                    world_from_model=tuple(
+                        tuple(float(v) for v in row) for row in self.world_from_base(step.robot)
+                    ),
                 )
             )
             self.apply_holding(step, spec)
@@ -388,7 +413,10 @@ class _Compiler:
         """A reference -> index into ``self.snapshots``."""
         if isinstance(ref, int):
             if ref >= len(self.plan.skeleton):
-                self.error(loc, f"step {ref} does not exist (the skeleton has {len(self.plan.skeleton)} steps, 0-{len(self.plan.skeleton) - 1})")
+                self.error(
+                    loc,
+                    f"step {ref} does not exist (the skeleton has {len(self.plan.skeleton)} steps, 0-{len(self.plan.skeleton) - 1})",
+                )
                 return None
             return self.stage_of_step.get(ref)
         if ref == "start":
@@ -444,10 +472,16 @@ class _Compiler:
         if isinstance(spec, Inside):
             kind = OBJECT_KINDS.get(self.objects[spec.target].kind) if spec.target in self.objects else None
             if kind is None or kind.inner_half_extents is None:
-                self.error(f"{loc}.target", f"{spec.target!r} is not a container (open boxes, mugs, cups, pots are)")
+                self.error(
+                    f"{loc}.target",
+                    f"{spec.target!r} is not a container (open boxes, mugs, cups, pots are)",
+                )
                 return
             if spec.object not in self.objects:
-                self.error(f"{loc}.object", f"{spec.object!r} is a robot; only objects go inside containers")
+                self.error(
+                    f"{loc}.object",
+                    f"{spec.object!r} is a robot; only objects go inside containers",
+                )
                 return
             params.update(
                 object_kind=self.objects[spec.object].kind,
@@ -460,10 +494,18 @@ class _Compiler:
             f2 = self.kind_frame(spec.target, spec.target_frame, f"{loc}.target_frame")
             if f1 is None or f2 is None:
                 return
-            params.update(object_frame=list(f1), target_frame=list(f2), height=spec.height, tolerance=spec.tolerance)
+            params.update(
+                object_frame=list(f1),
+                target_frame=list(f2),
+                height=spec.height,
+                tolerance=spec.tolerance,
+            )
         elif isinstance(spec, FixedTransform):
             if spec.transform is None and len(snapshots) < 2:
-                self.error(f"{loc}.at", "fixed_transform needs two or more states in 'at', or a 'transform'")
+                self.error(
+                    f"{loc}.at",
+                    "fixed_transform needs two or more states in 'at', or a 'transform'",
+                )
                 return
             params.update(tolerance=spec.tolerance, transform=spec.transform)
         elif isinstance(spec, Yaw):
@@ -480,7 +522,11 @@ class _Compiler:
                 out.append(node)
             return tuple(out)
 
-        groups: list[list[int]] = [snapshots] if isinstance(spec, FixedTransform) and spec.transform is None else [[s] for s in snapshots]
+        groups: list[list[int]] = (
+            [snapshots]
+            if isinstance(spec, FixedTransform) and spec.transform is None
+            else [[s] for s in snapshots]
+        )
         for snaps in groups:
             nodes: list[int] = []
             for s in snaps:

@@ -127,14 +127,17 @@ class CompiledPlan:
                     "robot": f.robot,
                     "group": f.group,
                     "pre": [label[t.node] for t in f.tokens if t.phase == "pre" and t.node is not None],
-                    "effect": [
-                        label[t.node] for t in f.tokens if t.phase == "effect" and t.node is not None
-                    ],
+                    "effect": [label[t.node] for t in f.tokens if t.phase == "effect" and t.node is not None],
                 }
                 for f in self.temporal
             ],
             "spatial_factors": [
-                {"type": s.type, "source": s.source, "index": s.index, "nodes": [label[i] for i in s.nodes]}
+                {
+                    "type": s.type,
+                    "source": s.source,
+                    "index": s.index,
+                    "nodes": [label[i] for i in s.nodes],
+                }
                 for s in self.spatial
             ],
             "stages": [list(s) for s in self.stages],

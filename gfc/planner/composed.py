@@ -95,7 +95,9 @@ class ComposedScore:
         compensation: Compensation = "marginal",
     ) -> None:
         if len(bank.layouts) != len(plan.temporal):
-            raise ValueError(f"the model stack has {len(bank.layouts)} entries for {len(plan.temporal)} factors")
+            raise ValueError(
+                f"the model stack has {len(bank.layouts)} entries for {len(plan.temporal)} factors"
+            )
         self.plan = plan
         self.bank = bank
         self.layout = VariableLayout.of(plan)
@@ -165,7 +167,9 @@ class ComposedScore:
         rows = torch.arange(n_factors).unsqueeze(1)
         self.query_src = self.src[rows, qt]  # (F, Q, D)
         self.query_frame_a = self.frame_a[rows, qt]  # (F, Q, D, D)
-        self.query_weight = (torch.from_numpy(query_weight).to(dtype)[..., None] * self.weight[rows, qt].ne(0))  # (F, Q, D)
+        self.query_weight = torch.from_numpy(query_weight).to(dtype)[..., None] * self.weight[rows, qt].ne(
+            0
+        )  # (F, Q, D)
         self.known_values = known_values if known_values is not None else self._known_from_plan()
         self._spatial = [(f, [self._node_getter(n) for n in f.nodes]) for f in plan.spatial]
 
@@ -254,7 +258,11 @@ class ComposedScore:
         return out, out_q
 
     def model_score(
-        self, z: torch.Tensor, sigma: torch.Tensor, known_noise: torch.Tensor, per_factor: bool = False
+        self,
+        z: torch.Tensor,
+        sigma: torch.Tensor,
+        known_noise: torch.Tensor,
+        per_factor: bool = False,
     ) -> torch.Tensor:
         """Sum of temporal factor scores with compensation, on z. z: (B, N) -> (B, N)."""
         full = torch.cat([z, self.known_values + sigma * known_noise], dim=1)
@@ -301,13 +309,19 @@ class ComposedScore:
             for (factor, _), r in zip(self._spatial, self.spatial_residuals(zg), strict=True):
                 w = factor.params.get("weight", 1.0) / factor.params.get("tolerance", 0.01) ** 2
                 # residuals are already divided by the tolerance: E = w_user/2 |r_scaled|^2
-                noised = factor.params.get("weight", 1.0) / (1.0 + factor.params.get("gain", 1.0) * w * sigma**2)
+                noised = factor.params.get("weight", 1.0) / (
+                    1.0 + factor.params.get("gain", 1.0) * w * sigma**2
+                )
                 energy = energy + 0.5 * (noised * (r**2).sum(-1)).sum()
             (grad,) = torch.autograd.grad(energy, zg)
         return -grad
 
     # ------------------------------------------------------------------ the composed model
     def score(
-        self, z: torch.Tensor, sigma: torch.Tensor, known_noise: torch.Tensor, per_factor: bool = False
+        self,
+        z: torch.Tensor,
+        sigma: torch.Tensor,
+        known_noise: torch.Tensor,
+        per_factor: bool = False,
     ) -> torch.Tensor:
         return self.model_score(z, sigma, known_noise, per_factor) + self.guidance(z, sigma)

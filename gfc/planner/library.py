@@ -39,12 +39,6 @@ class SkillLibrary(Protocol):
         ...
 
 
-class _StackedBank(StackedDenoiser):
-    """A concatenated stack that also keeps its per-model stacks (for per-factor evaluation)."""
-
-    singles: list[StackedDenoiser]
-
-
 def stack_models(models: list[StackedDenoiser], precision: Precision = "float32") -> StackedDenoiser:
     """Stack per-factor models into one bank; ``singles`` keeps them for per-factor evaluation."""
     bank = StackedDenoiser.concatenate(models)
@@ -52,14 +46,19 @@ def stack_models(models: list[StackedDenoiser], precision: Precision = "float32"
     if precision != "float32":
         bank = bank.with_precision(precision)
         singles = [m.with_precision(precision) for m in singles]
-    bank.singles = singles  # type: ignore[attr-defined]
+    bank.singles = singles
     return bank.eval()
 
 
 class InMemoryLibrary:
     """Models held in memory by name; banks are cached by the set of names they stack."""
 
-    def __init__(self, models: dict[str, StackedDenoiser], cache_size: int = 32, precision: Precision = "float32") -> None:
+    def __init__(
+        self,
+        models: dict[str, StackedDenoiser],
+        cache_size: int = 32,
+        precision: Precision = "float32",
+    ) -> None:
         self.models = models
         self.precision = precision
         self._cache: OrderedDict[tuple[str, ...], StackedDenoiser] = OrderedDict()
@@ -69,7 +68,9 @@ class InMemoryLibrary:
         names = tuple(refs)
         missing = sorted({n for n in names if n.split("@")[0] not in self.models})
         if missing:
-            raise KeyError(f"no skill model for {', '.join(missing)} (have: {', '.join(sorted(self.models))})")
+            raise KeyError(
+                f"no skill model for {', '.join(missing)} (have: {', '.join(sorted(self.models))})"
+            )
         stacked = self._cache.get(names)
         if stacked is None:
             stacked = stack_models([self.models[n.split("@")[0]] for n in names], self.precision)
@@ -85,8 +86,8 @@ def layout_for_factor(plan: CompiledPlan, step: int) -> TokenLayout:
     """The token layout a plan step's skill model must have."""
     factor = next(f for f in plan.temporal if f.step == step)
     spec = skill_spec(factor.skill)
-    kinds = {t.role: t.kind for t in spec.tokens()}
-    types = tuple(kinds[t.role] if t.role in kinds else "action" for t in factor.tokens)
+    kinds: dict[str, str] = {t.role: t.kind for t in spec.tokens()}
+    types = tuple(kinds.get(t.role, "action") for t in factor.tokens)
     return TokenLayout(tuple(t.dim for t in factor.tokens), types)
 
 

@@ -12,7 +12,7 @@ import torch
 from gfc.geometry import matrix_to_pose9, pose9_to_matrix, pose9_to_pose7
 from gfc.plan.graph import CompiledPlan
 from gfc.plan.schema import Options
-from gfc.planner.composed import ComposedScore, Compensation
+from gfc.planner.composed import Compensation, ComposedScore
 from gfc.planner.library import SkillLibrary
 from gfc.planner.sampling import SamplingSettings, sample_graph
 
@@ -64,13 +64,15 @@ def describe_candidate(composed: ComposedScore, z: torch.Tensor, index: int) -> 
             info["gripper"] = float(vec[9])
         nodes[node.label] = info
     residuals = []
-    for (factor, _), r in zip(composed._spatial, composed.spatial_residuals(z[index : index + 1]), strict=True):
+    for (spatial, _), r in zip(
+        composed._spatial, composed.spatial_residuals(z[index : index + 1]), strict=True
+    ):
         worst = float(r.abs().max()) if r.numel() else 0.0
         residuals.append(
             {
-                "type": factor.type,
-                "source": factor.source,
-                "index": factor.index,
+                "type": spatial.type,
+                "source": spatial.source,
+                "index": spatial.index,
                 "max_scaled_residual": worst,
                 "satisfied": worst <= SATISFIED_BELOW,
             }

@@ -1,0 +1,3 @@
+from gfc.cli.app import main
+
+main()

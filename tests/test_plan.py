@@ -1,0 +1,301 @@
+"""Plan schema and compiler: the example compiles as expected, every invalid case is located."""
+
+from __future__ import annotations
+
+import copy
+import json
+from typing import Any
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gfc.examples import load_example
+from gfc.plan import PlanError, compile_plan, load_plan
+
+
+def example() -> dict[str, Any]:
+    return load_example("hammer_place")
+
+
+def errors_of(plan: dict[str, Any]) -> list[tuple[str, str]]:
+    with pytest.raises(PlanError) as info:
+        compile_plan(plan)
+    return [(i.loc, i.message) for i in info.value.issues]
+
+
+def test_example_compiles_to_expected_node_versions() -> None:
+    graph = compile_plan(example())
+    summary = graph.summary()
+    assert summary["node_versions"] == [
+        "left@0", "right@0", "hammer@0", "box@0",  # the observed scene
+        "left@1", "hammer@1",  # pick
+        "left@2", "hammer@2",  # move
+        "right@1", "hammer@3", "left@3",  # regrasp (handover): all three change
+        "right@2", "hammer@4",  # place
+    ]  # fmt: skip
+    assert summary["known_nodes"] == ["left@0", "right@0", "hammer@0", "box@0"]
+    pre_effect = [(f["model"], f["pre"], f["effect"]) for f in summary["temporal_factors"]]
+    assert pre_effect == [
+        ("pick.hammer", ["left@0", "hammer@0"], ["left@1", "hammer@1"]),
+        ("move.hammer", ["left@1", "hammer@1"], ["left@2", "hammer@2"]),
+        ("regrasp.hammer", ["right@0", "hammer@2", "left@2"], ["right@1", "hammer@3", "left@3"]),
+        ("place.hammer", ["right@1", "hammer@3", "box@0"], ["right@2", "hammer@4"]),
+    ]
+    assert summary["spatial_factors"] == [
+        {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]}
+    ]
+    assert summary["shared_nodes"] == [
+        "hammer@1",
+        "hammer@2",
+        "hammer@3",
+        "left@1",
+        "left@2",
+        "right@1",
+    ]
+    # Known nodes carry the scene in the world frame (pose9, robots with the gripper opening).
+    hammer0 = graph.node("hammer@0")
+    assert hammer0.value is not None and hammer0.value[:3] == pytest.approx((0.45, 0.25, 0.64))
+    left0 = graph.node("left@0")
+    assert left0.value is not None and left0.value[1] == pytest.approx(0.35) and left0.value[9] == 0.08
+
+
+def test_group_shares_one_new_version_of_a_jointly_held_object() -> None:
+    plan = {
+        "scene": {
+            "robots": [
+                {"name": "left", "base": [0, 0.35, 0.625]},
+                {"name": "right", "base": [0, -0.35, 0.625]},
+            ],
+            "objects": [{"name": "pot", "kind": "pot", "pose": [0.5, 0, 0.625, 0, 0, 0, 1]}],
+        },
+        "skeleton": [
+            {"skill": "pick", "robot": "left", "object": "pot", "group": "grasp"},
+            {"skill": "pick", "robot": "right", "object": "pot", "group": "grasp"},
+            {"skill": "move", "robot": "left", "object": "pot", "group": "turn"},
+            {"skill": "move", "robot": "right", "object": "pot", "group": "turn"},
+        ],
+        "constraints": [
+            {
+                "type": "fixed_transform",
+                "object": "left",
+                "target": "right",
+                "at": ["grasp", "turn"],
+            }
+        ],
+        "goal": [{"type": "yaw", "object": "pot", "yaw_deg": 45}],
+    }
+    graph = compile_plan(plan)
+    effects = [
+        [graph.nodes[t.node].label for t in f.tokens if t.phase == "effect" and t.node is not None]
+        for f in graph.temporal
+    ]
+    assert effects == [
+        ["left@1", "pot@1"],
+        ["right@1", "pot@1"],
+        ["left@2", "pot@2"],
+        ["right@2", "pot@2"],
+    ]
+    assert graph.temporal_degree()[graph.node("pot@1").id] == 4  # effect of both picks, pre of both moves
+    assert graph.stages == ((0, 1), (2, 3))
+    fixed = graph.spatial[0]
+    assert [graph.nodes[n].label for n in fixed.nodes] == ["left@1", "right@1", "left@2", "right@2"]
+
+
+@pytest.mark.parametrize(
+    ("mutate", "loc", "fragment"),
+    [
+        (
+            lambda p: p["skeleton"][0].update(skill="teleport"),
+            "skeleton[0].skill",
+            "unknown skill 'teleport'",
+        ),
+        (
+            lambda p: p["skeleton"][0].update(object="anvil"),
+            "skeleton[0].object",
+            "'anvil' is not in the scene",
+        ),
+        (
+            lambda p: p["skeleton"][1].update(robot="middle"),
+            "skeleton[1].robot",
+            "'middle' is not in the scene",
+        ),
+        (
+            lambda p: p["skeleton"][0].update(robot="hammer"),
+            "skeleton[0].robot",
+            "an object, not a robot",
+        ),
+        # a robot that moves an object it does not hold
+        (
+            lambda p: p["skeleton"][1].update(robot="right"),
+            "skeleton[1].object",
+            "robot 'right' does not hold 'hammer'",
+        ),
+        (
+            lambda p: p["skeleton"][2].update(**{"from": "right", "robot": "left"}),
+            "skeleton[2].robot",
+            "already holds 'hammer'",
+        ),
+        # an object picked twice without release
+        (
+            lambda p: p["skeleton"].insert(1, {"skill": "pick", "robot": "right", "object": "hammer"}),
+            "skeleton[1].object",
+            "cannot be picked twice without being released",
+        ),
+        (
+            lambda p: p["skeleton"][0].update(object="box"),
+            "skeleton[0].object",
+            "fixed to the world",
+        ),
+        # a constraint on a step that does not exist
+        (lambda p: p["goal"][0].update(at=9), "goal[0].at", "step 9 does not exist"),
+        (lambda p: p["goal"][0].update(at="lift"), "goal[0].at", "no step or group 'lift'"),
+        (lambda p: p["goal"][0].update(target="hammer"), "goal[0].target", "is not a container"),
+        # a non-unit quaternion, NaN, absurd sizes
+        (
+            lambda p: p["scene"]["objects"][0].update(pose=[0.45, 0.25, 0.64, 0, 0, 0, 2]),
+            "scene.objects[0].pose",
+            "unit quaternion",
+        ),
+        (
+            lambda p: p["scene"]["objects"][0].update(pose=[float("nan"), 0.25, 0.64, 0, 0, 0, 1]),
+            "scene.objects[0].pose[0]",
+            "finite",
+        ),
+        (
+            lambda p: p["scene"]["objects"][0].update(pose=[1e6, 0.25, 0.64, 0, 0, 0, 1]),
+            "scene.objects[0].pose",
+            "more than 10.0 m",
+        ),
+        (
+            lambda p: p["scene"]["robots"][0].update(base=[0, 50, 0]),
+            "scene.robots[0].base[1]",
+            "less than or equal to 10",
+        ),
+        (
+            lambda p: p["options"].update(candidates=100000),
+            "options.candidates",
+            "less than or equal to 256",
+        ),
+        (lambda p: p.update(skeleton=p["skeleton"] * 20), "skeleton", "at most 64"),
+        (
+            lambda p: p["scene"]["objects"][0].update(name="x" * 500),
+            "scene.objects[0].name",
+            "at most 64",
+        ),
+        (
+            lambda p: p["scene"]["objects"][0].update(kind="anvil"),
+            "scene.objects[0].kind",
+            "unknown object kind 'anvil'",
+        ),
+        (
+            lambda p: p["skeleton"][0].update(colour="red"),
+            "skeleton[0].colour",
+            "Extra inputs are not permitted",
+        ),
+        (lambda p: p["options"].update(top_k=20), "options", "top_k (20) exceeds candidates (10)"),
+    ],
+)
+def test_invalid_plans_name_the_place_and_the_reason(mutate: Any, loc: str, fragment: str) -> None:
+    plan = example()
+    mutate(plan)
+    found = errors_of(plan)
+    assert any(l == loc and fragment in m for l, m in found), found  # noqa: E741
+
+
+def test_every_error_is_reported_not_just_the_first() -> None:
+    plan = example()
+    plan["skeleton"][0]["skill"] = "teleport"
+    plan["skeleton"][3]["target"] = "shelf"
+    plan["goal"][0]["at"] = 12
+    locs = {loc for loc, _ in errors_of(plan)}
+    assert {"skeleton[0].skill", "skeleton[3].target", "goal[0].at"} <= locs
+
+
+def test_load_plan_reports_json_syntax_with_line(tmp_path: Any) -> None:
+    bad = tmp_path / "plan.json"
+    bad.write_text('{"scene": {\n  "robots": [,]\n}}')
+    with pytest.raises(PlanError) as info:
+        load_plan(bad)
+    assert info.value.issues[0].loc.endswith(":2:14")
+
+
+# ---------------------------------------------------------------- property: valid skeletons compile
+
+ROBOTS = ["left", "right"]
+OBJECTS = {"hammer": "hammer", "cube": "cube", "mug": "mug"}
+
+
+@st.composite
+def valid_skeletons(draw: st.DrawFn) -> dict[str, Any]:
+    """Random symbolically feasible skeletons: a simulated holding state picks legal next steps."""
+    holding: dict[str, str | None] = dict.fromkeys(ROBOTS)
+    steps: list[dict[str, Any]] = []
+    for _ in range(draw(st.integers(1, 14))):
+        robot = draw(st.sampled_from(ROBOTS))
+        other = "right" if robot == "left" else "left"
+        held = holding[robot]
+        options = []
+        if held is None:
+            free_objects = [o for o in OBJECTS if o not in holding.values()]
+            options += [("pick", o) for o in free_objects]
+            if holding[other] is not None:
+                options.append(("regrasp", holding[other]))
+            options.append(("move", None))
+        else:
+            options += [("move", held), ("place", held)]
+        skill, obj = draw(st.sampled_from(options))
+        step: dict[str, Any] = {"skill": skill, "robot": robot}
+        if obj is not None:
+            step["object"] = obj
+        if skill == "place":
+            step["target"] = "box"
+            holding[robot] = None
+        elif skill == "pick":
+            holding[robot] = obj
+        elif skill == "regrasp":
+            step["from"] = other
+            holding[robot], holding[other] = obj, None
+        steps.append(step)
+    objects = [
+        {"name": n, "kind": k, "pose": [0.4, 0.1 * i, 0.64, 0, 0, 0, 1]}
+        for i, (n, k) in enumerate(OBJECTS.items())
+    ]
+    objects.append({"name": "box", "kind": "box", "pose": [0.5, -0.4, 0.625, 0, 0, 0, 1], "fixed": True})
+    return {
+        "scene": {
+            "robots": [{"name": r, "base": [0, 0.35 if r == "left" else -0.35, 0.625]} for r in ROBOTS],
+            "objects": objects,
+        },
+        "skeleton": steps,
+        "goal": [
+            {
+                "type": "near",
+                "object": "hammer",
+                "target": "box",
+                "distance": 0.5,
+                "at": len(steps) - 1,
+            }
+        ],
+    }
+
+
+@given(valid_skeletons())
+def test_generated_valid_skeletons_compile(plan: dict[str, Any]) -> None:
+    graph = compile_plan(json.loads(json.dumps(plan)))
+    assert len(graph.temporal) == len(plan["skeleton"])
+    # Every effect node is new and every pre node existed before its step.
+    seen: set[int] = {n.id for n in graph.known}
+    for factor in graph.temporal:
+        pre = {t.node for t in factor.tokens if t.phase == "pre"}
+        effect = {t.node for t in factor.tokens if t.phase == "effect"}
+        assert pre <= seen
+        assert not effect & seen
+        seen |= {n for n in effect if n is not None}
+
+
+def test_mutating_a_compiled_plan_input_does_not_change_it() -> None:
+    plan = example()
+    graph = compile_plan(copy.deepcopy(plan))
+    plan["skeleton"].clear()
+    assert len(graph.temporal) == 4

@@ -1,0 +1,122 @@
+"""Poses, frames and the spatial-factor residuals: analytic cases and properties."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gfc import constraints
+from gfc.geometry import (
+    invert,
+    matrix_to_pose9,
+    matrix_to_quat,
+    pose7_to_matrix,
+    pose9_frame_map,
+    pose9_to_matrix,
+    quat_to_matrix,
+    yaw_quat,
+)
+
+unit = st.floats(-1.0, 1.0, allow_nan=False)
+coords = st.floats(-2.0, 2.0, allow_nan=False)
+
+
+@st.composite
+def poses(draw: st.DrawFn) -> np.ndarray:
+    q = np.array([draw(unit) for _ in range(4)])
+    if np.linalg.norm(q) < 0.1:
+        q = np.array([0.0, 0.0, 0.0, 1.0])
+    q /= np.linalg.norm(q)
+    return np.concatenate([[draw(coords) for _ in range(3)], q])
+
+
+@given(poses())
+def test_quaternion_matrix_round_trip(pose: np.ndarray) -> None:
+    rot = quat_to_matrix(pose[3:])
+    assert np.allclose(rot @ rot.T, np.eye(3), atol=1e-9)
+    q = matrix_to_quat(rot)
+    assert np.allclose(quat_to_matrix(q), rot, atol=1e-9)
+    assert q[3] >= 0  # canonical sign
+
+
+@given(poses())
+def test_pose9_round_trip(pose: np.ndarray) -> None:
+    mat = pose7_to_matrix(pose)
+    assert np.allclose(pose9_to_matrix(matrix_to_pose9(mat)), mat, atol=1e-9)
+
+
+@given(poses(), poses())
+def test_frame_map_is_the_linear_change_of_frame(
+    world_from_base: np.ndarray, world_from_obj: np.ndarray
+) -> None:
+    """``A v + b`` on the 9-vector equals ``inv(world_from_base) @ world_from_obj``; A is orthogonal."""
+    base, obj = pose7_to_matrix(world_from_base), pose7_to_matrix(world_from_obj)
+    a, b = pose9_frame_map(base)
+    assert np.allclose(a @ a.T, np.eye(9), atol=1e-9)
+    expected = matrix_to_pose9(invert(base) @ obj)
+    assert np.allclose(a @ matrix_to_pose9(obj) + b, expected, atol=1e-9)
+
+
+def _node(x: float, y: float, z: float, yaw: float = 0.0) -> torch.Tensor:
+    return torch.tensor(
+        matrix_to_pose9(pose7_to_matrix([x, y, z, *yaw_quat(yaw)])), dtype=torch.float64
+    ).unsqueeze(0)
+
+
+def test_inside_is_zero_inside_and_grows_outside() -> None:
+    params = {"object_kind": "cube", "inner_half_extents": [0.1, 0.1, 0.05], "margin": 0.01}
+    box = _node(0.5, -0.4, 0.625)
+    assert float(constraints.inside([_node(0.52, -0.38, 0.63), box], params).abs().max()) == 0.0
+    # 5 cm beyond the wall along x: the far corners stick out by 0.05 + 0.02 (half cube) - 0.09
+    out = constraints.inside([_node(0.65, -0.4, 0.63), box], params)
+    assert float(out.max()) == pytest.approx(0.15 + 0.02 - 0.09, abs=1e-9)
+
+
+def test_inside_respects_the_container_rotation() -> None:
+    params = {"object_kind": "cube", "inner_half_extents": [0.2, 0.05, 0.05], "margin": 0.0}
+    # a long thin container turned by 90 degrees: 0.15 m along world y is inside, along x is not
+    box = _node(0.0, 0.0, 0.0, math.pi / 2)
+    assert float(constraints.inside([_node(0.0, 0.15, 0.01), box], params).max()) == 0.0
+    assert float(constraints.inside([_node(0.15, 0.0, 0.01), box], params).max()) > 0.1
+
+
+def test_aligned_uses_named_frames_and_height() -> None:
+    params = {
+        "object_frame": [0.13, 0, 0.0175, 0, 0, 0, 1],
+        "target_frame": [0, 0, 0.08, 0, 0, 0, 1],
+        "height": 0.05,
+    }
+    nail = _node(0.6, 0.1, 0.625)
+    # hammer turned by 90 degrees: its head (+0.13 along its x) lies along world +y
+    hammer = _node(0.6, 0.1 - 0.13, 0.625 + 0.08 + 0.05 - 0.0175, math.pi / 2)
+    assert np.allclose(constraints.aligned([hammer, nail], params).numpy(), 0.0, atol=1e-9)
+
+
+def test_yaw_residual_wraps_around() -> None:
+    r = constraints.yaw([_node(0, 0, 0, math.radians(179))], {"yaw": math.radians(-179)})
+    assert float(r) == pytest.approx(math.radians(-2), abs=1e-9)
+
+
+def test_fixed_transform_between_two_states() -> None:
+    left1, right1 = _node(0.5, 0.1, 0.8), _node(0.5, -0.1, 0.8)
+    # both grippers moved rigidly together: turned by 45 degrees about the world origin's z
+    turn = pose7_to_matrix([0, 0, 0, *yaw_quat(math.pi / 4)])
+    left2 = torch.tensor(matrix_to_pose9(turn @ pose9_to_matrix(left1[0].numpy()))).unsqueeze(0)
+    right2 = torch.tensor(matrix_to_pose9(turn @ pose9_to_matrix(right1[0].numpy()))).unsqueeze(0)
+    assert float(constraints.fixed_transform([left1, right1, left2, right2], {}).abs().max()) < 1e-9
+    moved = right2.clone()
+    moved[0, 0] += 0.03
+    assert float(constraints.fixed_transform([left1, right1, left2, moved], {}).abs().max()) > 0.02
+
+
+def test_near_and_far_are_one_sided() -> None:
+    a, b = _node(0, 0, 0), _node(0.3, 0.4, 0)  # 0.5 apart
+    assert float(constraints.near([a, b], {"distance": 0.6})) == 0.0
+    assert float(constraints.near([a, b], {"distance": 0.4})) == pytest.approx(0.1)
+    assert float(constraints.far([a, b], {"distance": 0.4})) == 0.0
+    assert float(constraints.far([a, b], {"distance": 0.7})) == pytest.approx(0.2)

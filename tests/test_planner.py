@@ -111,6 +111,18 @@ def test_compensation_touches_exactly_the_shared_nodes(
     assert weights == {-0.5}  # every shared node of this plan is shared by exactly two skills
 
 
+def test_mean_compensation_counts_each_shared_node_once(hammer_nail: tuple[CompiledPlan, object]) -> None:
+    """DESIGN.md's variant: the joint-score components of a shared node are averaged."""
+    plan, library = hammer_nail
+    bank = library.bank([f.model for f in plan.temporal]).denoiser  # type: ignore[attr-defined]
+    composed = ComposedScore(plan, bank, compensation="mean")
+    assert not composed.has_queries
+    total = torch.zeros(composed.layout.free_dim + composed.layout.known_dim + 1)
+    total.scatter_add_(0, composed.src.reshape(-1), composed.weight.reshape(-1))
+    free = total[: composed.layout.free_dim]
+    assert torch.allclose(free, torch.ones_like(free))  # every free dimension counted exactly once
+
+
 def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan, object]) -> None:
     plan, library = hammer_nail
     request = parse_plan(load_example("hammer_nail"))

@@ -43,7 +43,14 @@ VARIANTS = (
         per_factor=True,
     ),
     Variant("batched_bf16", "batched, network matmuls in bfloat16", precision="bfloat16"),
-    Variant("batched_no_compensation", "batched, without the marginal queries", compensation="none"),
+    Variant(
+        "batched_mean_compensation",
+        "batched, shared nodes averaged (no marginal queries)",
+        compensation="mean",
+    ),
+    Variant(
+        "batched_no_compensation", "batched, shared nodes not compensated (ablation)", compensation="none"
+    ),
 )
 
 

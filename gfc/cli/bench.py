@@ -33,11 +33,11 @@ def latency(
     reports medians. The paper needed 6 s on an A6000 GPU for this plan; our target is under
     0.2 s batched on a 2-core CPU.
     """
-    from gfc.bench.latency import latency_markdown, run_latency
+    from gfc.bench.latency import VARIANTS, latency_markdown, run_latency
 
     console = Console()
     with Progress(console=console, transient=True) as progress:
-        task = progress.add_task("timing", total=repeats * 4)
+        task = progress.add_task("timing", total=repeats * len(VARIANTS))
         result = run_latency(
             repeats=repeats,
             candidates=candidates,

@@ -187,6 +187,12 @@ class Options(_Strict):
     steps: Annotated[int, Field(ge=1, le=MAX_SAMPLING_STEPS)] = 50
     seed: Annotated[int, Field(ge=0, le=2**63 - 1)] = 0
     sampler: Literal["euler", "heun"] = "euler"
+    compensation: Literal["marginal", "mean", "none"] = Field(
+        "marginal", description="how nodes shared by two skills are counted once (see docs/adr/0001)"
+    )
+    corrector_steps: Annotated[int, Field(ge=0, le=20)] = Field(
+        0, description="Langevin corrector steps per sampling step (slower, closer to the product)"
+    )
 
     @model_validator(mode="after")
     def _top_k_within_candidates(self) -> Options:

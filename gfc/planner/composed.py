@@ -39,7 +39,11 @@ from gfc.diffusion.denoiser import StackedDenoiserProtocol
 from gfc.geometry import POSE9_DIM, pose9_frame_map
 from gfc.plan.graph import CompiledPlan
 
-Compensation = Literal["marginal", "none"]
+Compensation = Literal["marginal", "mean", "none"]
+"""How nodes shared by several temporal factors are counted once: "marginal" subtracts
+(d-1)/d of each factor's marginal score (exact, one extra single-token row per factor and shared
+node); "mean" averages the factors' joint-score components instead (DESIGN.md's reading of the
+paper: no extra rows, but not the gradient of a density); "none" is the ablation."""
 
 
 @dataclass(frozen=True)
@@ -145,7 +149,9 @@ class ComposedScore:
                 frame_b[f, t, : token.dim] = b
                 present[f, t] = True
                 if free:
-                    weight[f, t, : token.dim] = 1.0
+                    shared = token.node is not None and degree[token.node] >= 2
+                    mean_weight = 1.0 / degree[token.node] if shared and token.node is not None else 1.0
+                    weight[f, t, : token.dim] = mean_weight if compensation == "mean" else 1.0
 
         n_queries = max(1, max(len(q) for q in queries))
         query_token = np.zeros((n_factors, n_queries), dtype=np.int64)

@@ -27,7 +27,10 @@ class PlanResult:
 
 
 def settings_from_options(options: Options, **overrides: Any) -> SamplingSettings:
-    return replace(SamplingSettings(steps=options.steps, sampler=options.sampler), **overrides)
+    base = SamplingSettings(
+        steps=options.steps, sampler=options.sampler, corrector_steps=options.corrector_steps
+    )
+    return replace(base, **overrides)
 
 
 def _orthonormalised(vec: np.ndarray) -> np.ndarray:
@@ -85,12 +88,12 @@ def plan_candidates(
     library: SkillLibrary,
     options: Options,
     settings: SamplingSettings | None = None,
-    compensation: Compensation = "marginal",
+    compensation: Compensation | None = None,
 ) -> PlanResult:
     """Sample ``options.candidates`` joint solutions and return the best ``options.top_k``."""
     t0 = time.perf_counter()
     bank = library.bank([f.model for f in plan.temporal])
-    composed = ComposedScore(plan, bank.denoiser, compensation=compensation)
+    composed = ComposedScore(plan, bank.denoiser, compensation=compensation or options.compensation)
     t1 = time.perf_counter()
     generator = torch.Generator().manual_seed(options.seed)
     z = sample_graph(composed, options.candidates, settings or settings_from_options(options), generator)

@@ -33,8 +33,6 @@ _SAFETENSORS_DTYPES: dict[torch.dtype, str] = {
     torch.bfloat16: "BF16",
     torch.int64: "I64",
 }
-_WEIGHTS_DTYPES: dict[WeightsDtype, torch.dtype] = {"float32": torch.float32, "bfloat16": torch.bfloat16}
-_STATISTICS = ("token_types", "mean", "std")  # buffers of StackedDenoiser, not network weights
 
 
 @dataclass(frozen=True)
@@ -78,23 +76,28 @@ def read_header(data: bytes, ref: str) -> dict[str, TensorInfo]:
         raise IntegrityError(f"weights of {ref} have an unreadable safetensors header ({error})") from None
 
 
-def expected_tensors(manifest: Manifest) -> dict[str, TensorInfo]:
-    """The tensors a model built from this manifest has: built on the meta device, so no memory
-    is allocated and the one model builder stays the single source of truth for shapes."""
-    with torch.device("meta"):
-        skeleton = single_model(manifest.signature.layout, manifest.architecture.dit)
-    weights_dtype = _SAFETENSORS_DTYPES[_WEIGHTS_DTYPES[manifest.weights.dtype]]
+def build_skeleton(manifest: Manifest) -> StackedDenoiser:
+    """The model the manifest describes, with fresh weights: the one model builder is the single
+    source of truth for tensor names and shapes, and the checked weights load into this model."""
+    layout = manifest.signature.layout
+    mean = torch.tensor(manifest.normalisation.mean, dtype=torch.float32)
+    std = torch.tensor(manifest.normalisation.std, dtype=torch.float32)
+    model = single_model(layout, manifest.architecture.dit, mean, std)
+    if manifest.weights.dtype != "float32":
+        model = model.with_precision(manifest.weights.dtype)
+    return model
+
+
+def expected_tensors(skeleton: StackedDenoiser) -> dict[str, TensorInfo]:
     return {
-        name: TensorInfo(
-            _SAFETENSORS_DTYPES[tensor.dtype] if name in _STATISTICS else weights_dtype,
-            tuple(tensor.shape),
-        )
+        name: TensorInfo(_SAFETENSORS_DTYPES[tensor.dtype], tuple(tensor.shape))
         for name, tensor in skeleton.state_dict().items()
     }
 
 
-def _compare_structure(manifest: Manifest, found: dict[str, TensorInfo]) -> None:
-    expected = expected_tensors(manifest)
+def _compare_structure(
+    manifest: Manifest, expected: dict[str, TensorInfo], found: dict[str, TensorInfo]
+) -> None:
     problems = [f"missing tensor {n}" for n in sorted(expected.keys() - found.keys())]
     problems += [f"unexpected tensor {n}" for n in sorted(found.keys() - expected.keys())]
     for name in sorted(expected.keys() & found.keys()):
@@ -133,21 +136,24 @@ def _compare_statistics(manifest: Manifest, state: dict[str, torch.Tensor]) -> N
         )
 
 
-def check_weights(manifest: Manifest, data: bytes) -> dict[str, torch.Tensor]:
-    """Run every check on ``data`` against ``manifest``; the checked tensors, or IntegrityError."""
+def load_checked(manifest: Manifest, data: bytes) -> StackedDenoiser:
+    """Run every check on ``data`` against ``manifest``, then return the ready-to-call model
+    (eval mode); IntegrityError names the first check that fails."""
     if len(data) != manifest.weights.size_bytes:
         raise IntegrityError(
-            f"weights of {manifest.ref} are {len(data)} bytes, the manifest says {manifest.weights.size_bytes}: "
-            "the file is truncated or was replaced; pull or publish it again"
+            f"weights of {manifest.ref} are {len(data)} bytes, the manifest says "
+            f"{manifest.weights.size_bytes}: the file is truncated or was replaced; "
+            "pull or publish it again"
         )
     digest = sha256_hex(data)
     if digest != manifest.weights.sha256:
         raise IntegrityError(
             f"weights of {manifest.ref} hash to sha256 {digest[:16]}..., the manifest says "
-            f"{manifest.weights.sha256[:16]}...: the file is corrupt or was changed after publishing; "
-            "pull or publish it again"
+            f"{manifest.weights.sha256[:16]}...: the file is corrupt or was changed after "
+            "publishing; pull or publish it again"
         )
-    _compare_structure(manifest, read_header(data, manifest.ref))
+    model = build_skeleton(manifest)
+    _compare_structure(manifest, expected_tensors(model), read_header(data, manifest.ref))
     try:
         state = safetensors.torch.load(data)
     except Exception as error:  # safetensors raises its own error types for malformed buffers
@@ -155,20 +161,5 @@ def check_weights(manifest: Manifest, data: bytes) -> dict[str, torch.Tensor]:
             f"weights of {manifest.ref} cannot be decoded as safetensors ({error})"
         ) from None
     _compare_statistics(manifest, state)
-    return state
-
-
-def build_model(manifest: Manifest, state: dict[str, torch.Tensor]) -> StackedDenoiser:
-    """The ready-to-call (eval mode) model from a manifest and tensors that passed ``check_weights``."""
-    layout = manifest.signature.layout
-    mean = torch.tensor(manifest.normalisation.mean, dtype=torch.float32)
-    std = torch.tensor(manifest.normalisation.std, dtype=torch.float32)
-    model = single_model(layout, manifest.architecture.dit, mean, std)
-    if manifest.weights.dtype != "float32":
-        model = model.with_precision(manifest.weights.dtype)
     model.load_state_dict(state, strict=True)
     return model.eval()
-
-
-def load_checked(manifest: Manifest, data: bytes) -> StackedDenoiser:
-    return build_model(manifest, check_weights(manifest, data))

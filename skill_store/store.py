@@ -33,7 +33,7 @@ from skill_store.aliases import (
     remove_alias,
 )
 from skill_store.backend import StoreBackend, open_backend
-from skill_store.checkpoint import check_weights, load_checked, serialise, sha256_hex
+from skill_store.checkpoint import load_checked, serialise, sha256_hex
 from skill_store.errors import IntegrityError, PublishError, SkillNotFoundError, SkillStoreError
 from skill_store.manifest import (
     MANIFEST_FILE,
@@ -154,7 +154,7 @@ class SkillStore:
         resolved = self.resolve(ref)
         manifest = self._read_manifest(resolved)
         data = self._read_weights(resolved, manifest)
-        check_weights(manifest, data)
+        load_checked(manifest, data)
         return manifest, data
 
     def load(self, ref: str | SkillRef) -> StackedDenoiser:
@@ -182,7 +182,7 @@ class SkillStore:
         for target in targets:
             try:
                 manifest = self._read_manifest(target)
-                check_weights(manifest, self._read_weights(target, manifest))
+                load_checked(manifest, self._read_weights(target, manifest))
             except (IntegrityError, OSError) as error:
                 results.append(VerifyResult(str(target), False, str(error)))
             else:
@@ -246,7 +246,7 @@ class SkillStore:
         """Store weights with their manifest as the next version of ``manifest.name`` (the
         manifest's version number is replaced by the one allocated). Refuses a pair that fails
         the load-time checks, so nothing unloadable is ever published."""
-        check_weights(manifest, data)
+        load_checked(manifest, data)
         name = manifest.name
         version = self._claim_next_version(name)
         # created_at is when this store got the version (a pushed checkpoint keeps its training record).
@@ -277,7 +277,8 @@ class SkillStore:
 
         A publisher that dies after claiming leaves a gap in the numbers, never a duplicate."""
         taken = [int(e) for e in self.backend.list_names(name, CLAIMS_DIR) if is_version_text(e)]
-        taken += self.versions(name)
+        # Every numbered folder counts, published or not: a half-copied one must not be merged into.
+        taken += [int(e) for e in self.backend.list_names(name) if is_version_text(e)]
         candidate = max(taken, default=0) + 1
         claim = json.dumps({"actor": current_actor(), "at": utc_now().isoformat()}).encode()
         for _ in range(MAX_CLAIM_ATTEMPTS):

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from skill_store.backend import open_backend
-from skill_store.checkpoint import check_weights
+from skill_store.checkpoint import load_checked
 from skill_store.errors import PublishError
 from skill_store.manifest import (
     MANIFEST_FILE,
@@ -34,7 +34,7 @@ def read_checkpoint_folder(location: str | Path) -> tuple[Manifest, bytes]:
     )
     limit = min(manifest.weights.size_bytes, MAX_WEIGHTS_BYTES)
     data = backend.read_bytes(WEIGHTS_FILE, max_bytes=limit)
-    check_weights(manifest, data)
+    load_checked(manifest, data)
     return manifest, data
 
 

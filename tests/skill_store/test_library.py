@@ -1,0 +1,86 @@
+"""The planner's library over the store, and watching the store for changes."""
+
+from __future__ import annotations
+
+import threading
+
+import torch
+
+from gfc.diffusion.denoiser import StackedDenoiser
+from gfc.planner.library import stack_models
+from skill_store import SkillStore, StoreChange, StoreLibrary, StoreWatcher
+from tests.skill_store.conftest import random_model
+from tests.skill_store.test_store import MOVE_LAYOUT
+
+
+def bank_output(bank: StackedDenoiser) -> torch.Tensor:
+    generator = torch.Generator().manual_seed(2)
+    m, t, d = len(bank.layouts), bank.mean.shape[1], bank.max_dim
+    x = torch.randn(m, 3, t, d, generator=generator)
+    return bank.denoise(x, torch.full((m, 3), 0.7), torch.ones(m, 3, t, dtype=torch.bool))
+
+
+def test_banks_stack_the_resolved_models_in_order(store: SkillStore) -> None:
+    pick, move = random_model(0), random_model(1, MOVE_LAYOUT)
+    store.publish("pick.hammer", pick)
+    store.publish("move.hammer", move)
+    store.publish("pick.hammer", random_model(2))
+    store.set_alias("pick.hammer@1", "production")
+    library = StoreLibrary(store)
+    bank = library.bank(["pick.hammer@production", "move.hammer", "pick.hammer@production"])
+    assert bank.versions == {"pick.hammer@production": "pick.hammer@1", "move.hammer": "move.hammer@1"}
+    expected = stack_models([pick, move, pick])
+    assert torch.equal(bank_output(bank.denoiser), bank_output(expected))  # type: ignore[arg-type]
+    assert (
+        library.bank(["pick.hammer@production", "move.hammer", "pick.hammer@production"]).denoiser
+        is bank.denoiser
+    )
+
+
+def test_alias_moves_and_new_versions_reach_the_library_without_a_restart(store: SkillStore) -> None:
+    store.publish("pick.hammer", random_model(0))
+    library = StoreLibrary(store, state_ttl_s=3600.0)
+    assert library.bank(["pick.hammer"]).versions == {"pick.hammer": "pick.hammer@1"}
+    store.publish("pick.hammer", random_model(1))
+    assert library.bank(["pick.hammer"]).versions == {"pick.hammer": "pick.hammer@1"}  # cached state
+    library.refresh()
+    assert library.bank(["pick.hammer"]).versions == {"pick.hammer": "pick.hammer@2"}
+
+    store.set_alias("pick.hammer@1", "production")
+    instant = StoreLibrary(store, state_ttl_s=0.0)  # re-reads the store on every call
+    assert instant.bank(["pick.hammer@production"]).versions["pick.hammer@production"] == "pick.hammer@1"
+    store.set_alias("pick.hammer@2", "production")
+    assert instant.bank(["pick.hammer@production"]).versions["pick.hammer@production"] == "pick.hammer@2"
+
+
+def test_the_watcher_reports_new_versions_and_alias_moves(store: SkillStore) -> None:
+    store.publish("pick.hammer", random_model(0))
+    watcher = StoreWatcher(store)
+    assert watcher.poll() == [StoreChange("version_added", "pick.hammer", version=1)]
+    assert watcher.poll() == []
+    store.publish("pick.hammer", random_model(1), aliases=["production"])
+    store.publish("move.hammer", random_model(2, MOVE_LAYOUT))
+    assert watcher.poll() == [
+        StoreChange("version_added", "move.hammer", version=1),
+        StoreChange("version_added", "pick.hammer", version=2),
+        StoreChange("alias_moved", "pick.hammer", version=2, alias="production"),
+    ]
+    store.set_alias("pick.hammer@1", "production")
+    store.remove_alias("pick.hammer", "production")
+    assert watcher.poll() == [StoreChange("alias_removed", "pick.hammer", alias="production", previous=2)]
+    store.set_alias("pick.hammer@1", "production")
+    assert watcher.poll() == [StoreChange("alias_moved", "pick.hammer", version=1, alias="production")]
+
+
+def test_the_background_watcher_calls_back_on_changes(store: SkillStore) -> None:
+    seen: list[StoreChange] = []
+    changed = threading.Event()
+
+    def on_change(changes: list[StoreChange]) -> None:
+        seen.extend(changes)
+        changed.set()
+
+    with StoreWatcher(store, on_change, interval_s=0.01):
+        store.publish("pick.hammer", random_model(0))
+        assert changed.wait(timeout=10)
+    assert seen == [StoreChange("version_added", "pick.hammer", version=1)]

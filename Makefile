@@ -22,14 +22,14 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/mypy gfc skill_store service
+	$(BIN)/mypy gfc skill_store $(wildcard service clients)
 	$(BIN)/pytest -n 2 --dist loadgroup
 
 lint: $(STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .
 
 typecheck: $(STAMP)
-	$(BIN)/mypy gfc skill_store service
+	$(BIN)/mypy gfc skill_store $(wildcard service clients)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import multiprocessing
+import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
+from multiprocessing.synchronize import Barrier as BarrierType
 from pathlib import Path
 
 import torch
@@ -48,17 +50,32 @@ def test_a_reader_never_sees_a_partial_version(store: SkillStore) -> None:
 
 def test_concurrent_publishers_get_distinct_versions(store: SkillStore) -> None:
     model = random_model(0)
-    with ThreadPoolExecutor(max_workers=8) as pool:
-        versions = list(pool.map(lambda _: store.publish("pick.hammer", model), range(16)))
+    start = threading.Barrier(8)
+
+    def publish_twice(_: int) -> list[int]:
+        start.wait()  # all publishers race for the same next number
+        return [store.publish("pick.hammer", model) for _ in range(2)]
+
+    switch_interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # switch threads often, so races happen if they can
+    try:
+        with ThreadPoolExecutor(max_workers=8) as pool:
+            versions = [v for vs in pool.map(publish_twice, range(8)) for v in vs]
+    finally:
+        sys.setswitchinterval(switch_interval)
     assert sorted(versions) == list(range(1, 17))
     assert store.versions("pick.hammer") == tuple(range(1, 17))
     assert all(result.ok for result in store.verify())
 
 
-def _publish_from_another_process(location: str, seed: int, results: multiprocessing.Queue[int]) -> None:
+def _publish_from_another_process(
+    location: str, seed: int, start: BarrierType, results: multiprocessing.Queue[int]
+) -> None:
     store = SkillStore(location)
+    model = random_model(seed)
+    start.wait()
     for _ in range(3):
-        results.put(store.publish("pick.hammer", random_model(seed)))
+        results.put(store.publish("pick.hammer", model))
 
 
 def test_concurrent_processes_get_distinct_versions_on_a_local_folder(tmp_path: Path) -> None:
@@ -66,8 +83,10 @@ def test_concurrent_processes_get_distinct_versions_on_a_local_folder(tmp_path: 
     location = str(tmp_path / "store")
     context = multiprocessing.get_context("fork")
     results: multiprocessing.Queue[int] = context.Queue()
+    start = context.Barrier(4)
     workers = [
-        context.Process(target=_publish_from_another_process, args=(location, s, results)) for s in range(4)
+        context.Process(target=_publish_from_another_process, args=(location, s, start, results))
+        for s in range(4)
     ]
     for worker in workers:
         worker.start()

@@ -269,3 +269,15 @@ def test_skills_without_a_catalogue_entry_get_a_plain_signature(store: SkillStor
     signature = store.manifest("custom.thing").signature
     assert signature.skill is None and [t.dim for t in signature.tokens] == [10, 9, 10, 9]
     assert store.skills() == ["custom.thing"]
+
+
+def test_exclusive_creation_lets_exactly_one_writer_win(store: SkillStore) -> None:
+    assert store.backend.create_exclusive(b"first", "pick.hammer", ".claims", "1")
+    assert not store.backend.create_exclusive(b"second", "pick.hammer", ".claims", "1")
+    assert store.backend.read_bytes("pick.hammer", ".claims", "1", max_bytes=64) == b"first"
+
+
+def test_a_claimed_number_is_never_published_twice(store: SkillStore, model: StackedDenoiser) -> None:
+    store.backend.create_exclusive(b"{}", "pick.hammer", ".claims", "1")  # a publisher mid-way or dead
+    assert store.publish("pick.hammer", model) == 2
+    assert store.versions("pick.hammer") == (2,)

@@ -58,6 +58,16 @@ def serialise(model: StackedDenoiser) -> tuple[bytes, WeightsDtype]:
     return safetensors.torch.save(state), weights_dtype
 
 
+def implied_bytes_lower_bound(manifest: Manifest) -> int:
+    """Bytes the transformer blocks alone take (attention, projections, MLP, modulation): a
+    manifest implying more than the file holds describes another model, and is refused before
+    anything is allocated for it."""
+    config = manifest.architecture.dit
+    h, mlp = config.hidden, int(config.hidden * config.mlp_ratio)
+    per_block = 6 * h * h + 3 * h * h + h * h + 2 * h * mlp
+    return config.depth * per_block * (2 if manifest.weights.dtype == "bfloat16" else 4)
+
+
 def read_header(data: bytes, ref: str) -> dict[str, TensorInfo]:
     """Tensor names, dtypes and shapes from safetensors bytes, without loading any tensor."""
     if len(data) < 8:
@@ -151,6 +161,12 @@ def load_checked(manifest: Manifest, data: bytes) -> StackedDenoiser:
             f"weights of {manifest.ref} hash to sha256 {digest[:16]}..., the manifest says "
             f"{manifest.weights.sha256[:16]}...: the file is corrupt or was changed after "
             "publishing; pull or publish it again"
+        )
+    if implied_bytes_lower_bound(manifest) > len(data):
+        raise IntegrityError(
+            f"manifest of {manifest.ref} describes a network of at least "
+            f"{implied_bytes_lower_bound(manifest)} bytes, but its weights are {len(data)} bytes: "
+            "the manifest describes another model; re-publish the model"
         )
     model = build_skeleton(manifest)
     _compare_structure(manifest, expected_tensors(model), read_header(data, manifest.ref))

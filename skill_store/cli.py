@@ -13,7 +13,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from skill_store.errors import SkillStoreError
+from skill_store.errors import IntegrityError, SkillStoreError
 from skill_store.names import parse_ref, validate_name
 from skill_store.store import DEFAULT_LIBRARY, SkillStore
 from skill_store.transfer import read_checkpoint_folder, write_checkpoint_folder
@@ -79,7 +79,12 @@ def list_command(
             out.print(table if rows else f"no skills in {store}")
             return
         state = skill_store.state(validate_name(name))
-        manifests = [skill_store.manifest(f"{name}@{v}") for v in state.versions]
+        manifests = []
+        for v in state.versions:
+            try:
+                manifests.append(skill_store.manifest(f"{name}@{v}"))
+            except IntegrityError as error:  # list the rest; verify says what is wrong
+                err.print(f"[red]{name}@{v} is unreadable:[/red] {error}", highlight=False)
         if as_json:
             versions = [
                 {

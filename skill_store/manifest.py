@@ -76,6 +76,18 @@ class Normalisation(_Strict):
         return values
 
 
+# Upper bounds on the architecture a manifest may ask for: far above any skill model, low enough
+# that a hostile manifest cannot make the loader allocate without bound (``dropout``: 0..1).
+_CONFIG_LIMITS = {
+    "hidden": 4096,
+    "depth": 64,
+    "heads": 64,
+    "mlp_ratio": 16,
+    "max_token_dim": 4096,
+    "freq_dim": 4096,
+}
+
+
 class Architecture(_Strict):
     """How to build the network: the one builder (``single_model``) and its config."""
 
@@ -85,11 +97,16 @@ class Architecture(_Strict):
     @field_validator("config")
     @classmethod
     def _known_config(cls, config: dict[str, int | float]) -> dict[str, int | float]:
-        try:
-            DiTConfig.from_dict(dict(config))
-        except TypeError as error:
-            known = ", ".join(DiTConfig().to_dict())
-            raise ValueError(f"not a DiTConfig ({error}); fields are: {known}") from None
+        defaults = DiTConfig().to_dict()
+        unknown = sorted(set(config) - set(defaults))
+        if unknown:
+            raise ValueError(f"unknown DiTConfig fields {unknown}; fields are: {', '.join(defaults)}")
+        for key, value in config.items():
+            # Integer sizes must be integers: a float hidden size would only fail deep in torch.
+            if isinstance(defaults[key], int) and not isinstance(value, int):
+                raise ValueError(f"{key} must be an integer, not {value!r}")
+            if not 0 <= value <= _CONFIG_LIMITS.get(key, 1):
+                raise ValueError(f"{key} = {value} is outside 0..{_CONFIG_LIMITS.get(key, 1)}")
         return config
 
     @property

@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import json
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import pytest
 import torch
 
+import skill_store
 from gfc.diffusion.denoiser import StackedDenoiser, TokenLayout, denoise_flat
 from gfc.diffusion.network import DiTConfig
 from gfc.planner.library import stack_models
@@ -120,19 +125,51 @@ def test_truncated_weights_are_refused(store: SkillStore, model: StackedDenoiser
         store.load("pick.hammer")
 
 
-def test_a_manifest_that_describes_another_architecture_is_refused(
-    store: SkillStore, model: StackedDenoiser
-) -> None:
-    store.publish("pick.hammer", model)
+def edit_manifest(store: SkillStore, edit: Callable[[dict[str, Any]], None]) -> None:
     manifest = json.loads(read(store, "pick.hammer", 1, MANIFEST_FILE))
-    manifest["architecture"]["config"]["hidden"] = 64  # sha256 still matches: only shapes can tell
+    edit(manifest)
     rewrite(store, "pick.hammer", 1, MANIFEST_FILE, json.dumps(manifest).encode())
+
+
+def test_a_manifest_that_describes_other_shapes_is_refused(store: SkillStore, model: StackedDenoiser) -> None:
+    store.publish("pick.hammer", model)
+    # The sha256 still matches: only the shapes can tell.
+    edit_manifest(store, lambda m: m["architecture"]["config"].update(max_token_dim=12))
     with pytest.raises(
         IntegrityError,
-        match=r"does not match its weights: .*fc1_w is F32\[1, 32, 64\], the manifest implies F32\[1, 64, 128\]",
+        match=r"does not match its weights: .*enc_w is F32\[1, 3, 10, 32\], the manifest implies F32\[1, 3, 12, 32\]",
     ):
         store.load("pick.hammer")
     assert not store.verify()[0].ok
+
+
+@pytest.mark.parametrize("size", [{"hidden": 64}, {"hidden": 4096, "depth": 64, "mlp_ratio": 16}])
+def test_a_manifest_that_describes_a_bigger_network_is_refused_before_building_it(
+    store: SkillStore, model: StackedDenoiser, size: dict[str, int]
+) -> None:
+    store.publish("pick.hammer", model)
+    edit_manifest(store, lambda m: m["architecture"]["config"].update(size))
+    with pytest.raises(
+        IntegrityError, match=r"describes a network of at least \d+ bytes, but its weights are"
+    ):
+        store.load("pick.hammer")
+
+
+@pytest.mark.parametrize(
+    ("config", "problem"),
+    [
+        ({"hidden": 32.5}, "must be an integer"),
+        ({"depth": 10_000}, "outside"),
+        ({"exec": 1}, "unknown DiTConfig"),
+    ],
+)
+def test_a_manifest_with_an_impossible_config_is_refused(
+    store: SkillStore, model: StackedDenoiser, config: dict[str, float], problem: str
+) -> None:
+    store.publish("pick.hammer", model)
+    edit_manifest(store, lambda m: m["architecture"]["config"].update(config))
+    with pytest.raises(ManifestError, match=problem):
+        store.load("pick.hammer")
 
 
 def test_a_manifest_with_another_layout_is_refused(store: SkillStore, model: StackedDenoiser) -> None:
@@ -281,3 +318,15 @@ def test_a_claimed_number_is_never_published_twice(store: SkillStore, model: Sta
     store.backend.create_exclusive(b"{}", "pick.hammer", ".claims", "1")  # a publisher mid-way or dead
     assert store.publish("pick.hammer", model) == 2
     assert store.versions("pick.hammer") == (2,)
+
+
+def test_no_module_of_the_store_can_unpickle() -> None:
+    # Loading must never run code: no pickle, no torch.load, no eval of manifest strings.
+    sources = Path(skill_store.__file__).parent.rglob("*.py")
+    forbidden = re.compile(
+        r"^\s*(import|from)\s+(pickle|dill|cloudpickle|joblib|marshal)\b"
+        r"|(?<!safetensors\.)torch\.load\(|(?<![.\w])(eval|exec)\(",
+        re.MULTILINE,
+    )
+    offenders = [str(p) for p in sources if forbidden.search(p.read_text())]
+    assert offenders == []

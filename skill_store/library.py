@@ -59,7 +59,7 @@ class StoreLibrary:
             if model is not None:
                 self._models.move_to_end(resolved)
                 return model
-        model = self.store.load(resolved.__str__())
+        model = self.store.load(resolved)
         with self._lock:
             self._models[resolved] = model
             _trim(self._models, self._cache_size)

@@ -140,16 +140,20 @@ class SkillStore:
     def state(self, name: str) -> SkillState:
         return SkillState(name, self.versions(name), self.aliases(name))
 
-    def resolve(self, ref: str | SkillRef) -> ResolvedRef:
-        """``pick.hammer`` / ``pick.hammer@3`` / ``pick.hammer@production`` -> ``pick.hammer@3``."""
+    def resolve(self, ref: str | SkillRef | ResolvedRef) -> ResolvedRef:
+        """``pick.hammer`` / ``pick.hammer@3`` / ``pick.hammer@production`` -> ``pick.hammer@3``.
+
+        A ``ResolvedRef`` is already resolved and returned as it is (versions are immutable)."""
+        if isinstance(ref, ResolvedRef):
+            return ref
         parsed = parse_ref(ref) if isinstance(ref, str) else ref
         return self.state(parsed.name).resolve(parsed, where=self.location)
 
-    def manifest(self, ref: str | SkillRef) -> Manifest:
+    def manifest(self, ref: str | SkillRef | ResolvedRef) -> Manifest:
         resolved = self.resolve(ref)
         return self._read_manifest(resolved)
 
-    def weights_bytes(self, ref: str | SkillRef) -> tuple[Manifest, bytes]:
+    def weights_bytes(self, ref: str | SkillRef | ResolvedRef) -> tuple[Manifest, bytes]:
         """The manifest and the raw weights of a version, checked (sha256 and structure)."""
         resolved = self.resolve(ref)
         manifest = self._read_manifest(resolved)
@@ -157,7 +161,7 @@ class SkillStore:
         load_checked(manifest, data)
         return manifest, data
 
-    def load(self, ref: str | SkillRef) -> StackedDenoiser:
+    def load(self, ref: str | SkillRef | ResolvedRef) -> StackedDenoiser:
         """A ready-to-call denoiser (eval mode), after every integrity check."""
         resolved = self.resolve(ref)
         manifest = self._read_manifest(resolved)
@@ -175,7 +179,10 @@ class SkillStore:
             for ref in refs:
                 parsed = parse_ref(ref)
                 if parsed.version is None and parsed.alias is None:  # a bare name: all versions
-                    targets += [ResolvedRef(parsed.name, v) for v in self.versions(parsed.name)]
+                    versions = self.versions(parsed.name)
+                    if not versions:
+                        raise SkillNotFoundError(f"{self.location} has no published version of {parsed.name}")
+                    targets += [ResolvedRef(parsed.name, v) for v in versions]
                 else:
                     targets.append(self.resolve(parsed))
         results = []
@@ -191,10 +198,13 @@ class SkillStore:
 
     def _read_manifest(self, ref: ResolvedRef) -> Manifest:
         where = self.backend.path(ref.name, str(ref.version), MANIFEST_FILE)
-        manifest = parse_manifest(
-            self.backend.read_bytes(ref.name, str(ref.version), MANIFEST_FILE, max_bytes=MAX_MANIFEST_BYTES),
-            where,
-        )
+        try:
+            data = self.backend.read_bytes(
+                ref.name, str(ref.version), MANIFEST_FILE, max_bytes=MAX_MANIFEST_BYTES
+            )
+        except FileNotFoundError:
+            raise SkillNotFoundError(f"{ref} is not published in {self.location}") from None
+        manifest = parse_manifest(data, where)
         if (manifest.name, manifest.version) != (ref.name, ref.version):
             raise IntegrityError(
                 f"{where} describes {manifest.ref}, not {ref}: a version folder was copied or renamed "

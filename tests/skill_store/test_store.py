@@ -330,3 +330,8 @@ def test_no_module_of_the_store_can_unpickle() -> None:
     )
     offenders = [str(p) for p in sources if forbidden.search(p.read_text())]
     assert offenders == []
+
+
+def test_verify_of_an_unknown_skill_is_an_error_not_an_empty_success(store: SkillStore) -> None:
+    with pytest.raises(SkillNotFoundError, match=r"no published version of pick\.hammer"):
+        store.verify(["pick.hammer"])

@@ -7,9 +7,13 @@ import threading
 import torch
 
 from gfc.diffusion.denoiser import StackedDenoiser
-from gfc.planner.library import stack_models
+from gfc.examples import load_example
+from gfc.plan import compile_plan
+from gfc.plan.schema import Options
+from gfc.planner.library import random_library, stack_models
+from gfc.planner.planner import plan_candidates
 from skill_store import SkillStore, StoreChange, StoreLibrary, StoreWatcher
-from tests.skill_store.conftest import random_model
+from tests.skill_store.conftest import SMALL, random_model
 from tests.skill_store.test_store import MOVE_LAYOUT
 
 
@@ -84,3 +88,15 @@ def test_the_background_watcher_calls_back_on_changes(store: SkillStore) -> None
         store.publish("pick.hammer", random_model(0))
         assert changed.wait(timeout=10)
     assert seen == [StoreChange("version_added", "pick.hammer", version=1)]
+
+
+def test_the_planner_runs_on_stored_skills_exactly_as_on_in_memory_ones(store: SkillStore) -> None:
+    plan = compile_plan(load_example("hammer_nail"))
+    in_memory = random_library(plan, SMALL, seed=3)
+    for name, model in in_memory.models.items():
+        store.publish(name, model, {"seed": 3})
+    options = Options(candidates=4, top_k=2, steps=3)
+    from_store = plan_candidates(plan, StoreLibrary(store), options)
+    expected = plan_candidates(plan, in_memory, options)
+    assert from_store.candidates == expected.candidates
+    assert set(from_store.models.values()) == {f"{name}@1" for name in in_memory.models}

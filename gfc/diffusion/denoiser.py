@@ -84,6 +84,17 @@ class StackedDenoiserProtocol(Protocol):
         (the model's token slot at each position; default 0..T-1) -> (M, B, T, D_max)."""
         ...
 
+    def denoise_with_lone(
+        self,
+        x: torch.Tensor,
+        sigma: torch.Tensor,
+        present: torch.Tensor,
+        lone_x: torch.Tensor,
+        lone_roles: torch.Tensor,
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Rows plus lone single-token queries (M, R, D) with roles (M, R); sigma (M, 1)."""
+        ...
+
 
 class StackedDenoiser(nn.Module):
     """M DiT skill models with their statistics; EDM preconditioning per dimension.
@@ -139,10 +150,49 @@ class StackedDenoiser(nn.Module):
         types = self.token_types[models, roles]  # (M, B, T)
         s = edm_scalings(sigma[..., None, None], std)
         centred = x - mean
-        out: torch.Tensor = self.network(s.c_in * centred, noise_conditioning(sigma), roles, types, present)
+        out = self.network(s.c_in * centred, noise_conditioning(sigma), roles, types, present)
+        assert isinstance(out, torch.Tensor)
         # Preconditioning and the skip path stay in float32 whatever the network's precision:
         # at low noise the skip path carries almost all of the output.
         return mean + s.c_skip * centred + s.c_out * out.to(x.dtype)
+
+    def denoise_with_lone(
+        self,
+        x: torch.Tensor,
+        sigma: torch.Tensor,
+        present: torch.Tensor,
+        lone_x: torch.Tensor,
+        lone_roles: torch.Tensor,
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Rows and lone tokens (single-token marginal queries) in one network pass.
+
+        x: (M, B, T, D), sigma: (M, 1), present: (M, B, T); lone_x: (M, R, D), lone_roles:
+        (M, R) -> ((M, B, T, D), (M, R, D)).
+        """
+        m, b, t, _ = x.shape
+        roles = torch.arange(t).expand(m, b, t)
+        models = torch.arange(m)
+        rows_mean, rows_std = self.mean[:, :t].unsqueeze(1), self.std[:, :t].unsqueeze(1)  # (M,1,T,D)
+        lone_mean = self.mean[models.view(m, 1), lone_roles]  # (M, R, D)
+        lone_std = self.std[models.view(m, 1), lone_roles]
+        rows_s = edm_scalings(sigma[..., None, None], rows_std)
+        lone_s = edm_scalings(sigma[..., None], lone_std)
+        rows_centred, lone_centred = x - rows_mean, lone_x - lone_mean
+        types = self.token_types[:, :t].unsqueeze(1).expand(m, b, t)
+        lone_types = self.token_types[models.view(m, 1), lone_roles]
+        out = self.network(
+            rows_s.c_in * rows_centred,
+            noise_conditioning(sigma),
+            roles,
+            types,
+            present,
+            lone=(lone_s.c_in * lone_centred, lone_roles, lone_types),
+        )
+        assert isinstance(out, tuple)
+        rows_out, lone_out = out
+        rows = rows_mean + rows_s.c_skip * rows_centred + rows_s.c_out * rows_out.to(x.dtype)
+        lone = lone_mean + lone_s.c_skip * lone_centred + lone_s.c_out * lone_out.to(x.dtype)
+        return rows, lone
 
     @property
     def precision(self) -> Precision:

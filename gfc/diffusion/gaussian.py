@@ -62,6 +62,19 @@ class GaussianBank:
     def singles(self) -> list[GaussianBank]:
         return [GaussianBank([f], self.max_dim) for f in self.factors]
 
+    def denoise_with_lone(
+        self,
+        x: torch.Tensor,
+        sigma: torch.Tensor,
+        present: torch.Tensor,
+        lone_x: torch.Tensor,
+        lone_roles: torch.Tensor,
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        m, r, _ = lone_x.shape
+        ones = torch.ones(m, r, 1, dtype=torch.bool)
+        lone = self.denoise(lone_x.unsqueeze(2), sigma, ones, lone_roles.unsqueeze(2))
+        return self.denoise(x, sigma, present), lone.squeeze(2)
+
     def denoise(
         self,
         x: torch.Tensor,

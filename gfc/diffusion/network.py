@@ -59,11 +59,6 @@ def _linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.
     return torch.baddbmm(bias.unsqueeze(1), x, weight)
 
 
-def _modulate(x: torch.Tensor, shift: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:
-    """x: (M, B, T, H); shift, scale: (M, B, H)."""
-    return x * (1 + scale.unsqueeze(2)) + shift.unsqueeze(2)
-
-
 class DiTStack(nn.Module):
     """M DiT score networks of one size, evaluated together.
 
@@ -125,36 +120,64 @@ class DiTStack(nn.Module):
         roles: torch.Tensor,
         token_types: torch.Tensor,
         present: torch.Tensor,
-    ) -> torch.Tensor:
-        """x: (M, B, T, D), c_noise: (M, B) or (M, 1) (one level for all rows: the adaLN
-        modulation is then computed once per model instead of once per row), roles/token_types:
-        (M, B, T) long, present: (M, B, T).
+        lone: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None,
+    ) -> torch.Tensor | tuple[torch.Tensor, torch.Tensor]:
+        """Rows of tokens, plus optionally lone tokens, through M networks in one pass.
 
-        ``roles`` says which of the model's token slots each position holds, so a batch may
-        carry full factors (roles 0..T-1) and single-token marginal queries (T = 1) alike.
+        x: (M, B, T, D) rows of tokens; c_noise: (M, B), or (M, 1) when every row shares one
+        level (the adaLN modulation is then computed once per model, not once per row);
+        roles, token_types: (M, B, T) long (the model's token slot at each position, and its
+        type); present: (M, B, T) bool (absent tokens are masked out of attention).
+
+        lone: (x (M, R, D), roles (M, R), token_types (M, R)): tokens evaluated on their own
+        (a single-token marginal query: its attention is its own value). They share every
+        linear layer's matmul with the rows, which is what makes them cheap. Requires
+        c_noise of shape (M, 1). Returns (rows_out, lone_out) when given, else rows_out.
         """
-        x = x.to(self.enc_w.dtype)
         m, b, t, d = x.shape
-        h_dim = self.config.hidden
-        n_types = len(TOKEN_TYPES)
-        # Encode with every type's encoder (D is tiny) and keep the token's own type.
+        tokens = x.to(self.enc_w.dtype).reshape(m, b * t, d)
+        roles_flat, types_flat = roles.reshape(m, b * t), token_types.reshape(m, b * t)
+        if lone is not None:
+            if c_noise.shape[1] != 1:
+                raise ValueError("lone tokens need one noise level per model (c_noise of shape (M, 1))")
+            x_lone, roles_lone, types_lone = lone
+            tokens = torch.cat([tokens, x_lone.to(tokens.dtype)], dim=1)
+            roles_flat = torch.cat([roles_flat, roles_lone], dim=1)
+            types_flat = torch.cat([types_flat, types_lone], dim=1)
+        h = self._encode(tokens, roles_flat, types_flat)  # (M, N, H)
+        c = F.silu(self.noise_embedding(c_noise))  # (M, B or 1, H)
+        if c.shape[1] != 1:
+            c = c.repeat_interleave(t, dim=1)  # per-row levels: one modulation per token
+        attn_mask = present.reshape(m * b, 1, 1, t)  # True = attend
+        for block in self.blocks:
+            h = block(h, c, attn_mask, b, t)
+        shift, scale = _linear(c, self.final_mod_w, self.final_mod_b).chunk(2, dim=-1)
+        h = F.layer_norm(h, (h.shape[-1],)) * (1 + scale) + shift
+        out = self._decode(h, types_flat, d)  # (M, N, D)
+        rows_out = out[:, : b * t].reshape(m, b, t, d)
+        if lone is None:
+            return rows_out
+        return rows_out, out[:, b * t :]
+
+    def _encode(self, tokens: torch.Tensor, roles: torch.Tensor, types: torch.Tensor) -> torch.Tensor:
+        """(M, N, D) -> (M, N, H): every type's encoder (D is tiny), keep the token's own type,
+        add the role embedding."""
+        m, n, d = tokens.shape
+        h_dim, n_types = self.config.hidden, len(TOKEN_TYPES)
         enc_w = self.enc_w.permute(0, 2, 1, 3).reshape(m, d, n_types * h_dim)  # (M, D, 3H)
         enc_b = self.enc_b.reshape(m, n_types * h_dim)
-        h = _linear(x.reshape(m, b * t, d), enc_w, enc_b).reshape(m, b, t, n_types, h_dim)
-        h = h.gather(3, token_types[..., None, None].expand(m, b, t, 1, h_dim)).squeeze(3)
-        models = torch.arange(m, device=x.device).view(m, 1, 1)
-        h = h + self.role_emb[models, roles]  # (M, B, T, H)
-        c = F.silu(self.noise_embedding(c_noise))  # (M, B, H)
-        # Boolean attention mask, True = attend. Every query attends to the present keys only.
-        attn_mask = present.reshape(m * b, 1, 1, t)
-        for block in self.blocks:
-            h = block(h, c, attn_mask)
-        shift, scale = _linear(c, self.final_mod_w, self.final_mod_b).chunk(2, dim=-1)
-        h = _modulate(F.layer_norm(h, (h_dim,)), shift, scale)  # (M, B, T, H)
+        h = _linear(tokens, enc_w, enc_b).reshape(m, n, n_types, h_dim)
+        h = h.gather(2, types[..., None, None].expand(m, n, 1, h_dim)).squeeze(2)
+        models = torch.arange(m, device=tokens.device).view(m, 1)
+        return h + self.role_emb[models, roles]
+
+    def _decode(self, h: torch.Tensor, types: torch.Tensor, d: int) -> torch.Tensor:
+        m, n, h_dim = h.shape
+        n_types = len(TOKEN_TYPES)
         dec_w = self.dec_w.permute(0, 2, 1, 3).reshape(m, h_dim, n_types * d)  # (M, H, 3D)
         dec_b = self.dec_b.reshape(m, n_types * d)
-        out = _linear(h.reshape(m, b * t, h_dim), dec_w, dec_b).reshape(m, b, t, n_types, d)
-        return out.gather(3, token_types[..., None, None].expand(m, b, t, 1, d)).squeeze(3)
+        out = _linear(h, dec_w, dec_b).reshape(m, n, n_types, d)
+        return out.gather(2, types[..., None, None].expand(m, n, 1, d)).squeeze(2)
 
     @staticmethod
     def concatenate(stacks: list[DiTStack]) -> DiTStack:
@@ -195,26 +218,27 @@ class _Block(nn.Module):
         self.fc2_w = _param(m, mlp, h, std=std)
         self.fc2_b = _param(m, h)
 
-    def forward(self, x: torch.Tensor, c: torch.Tensor, attn_mask: torch.Tensor) -> torch.Tensor:
-        """x: (M, B, T, H); c: (M, B, H), or (M, 1, H) when every row has one noise level."""
-        m, b, t, h = x.shape
-        mod = _linear(c, self.mod_w, self.mod_b)  # (M, B or 1, 6H)
+    def forward(
+        self, x: torch.Tensor, c: torch.Tensor, attn_mask: torch.Tensor, b: int, t: int
+    ) -> torch.Tensor:
+        """x: (M, N, H) with N = B*T row tokens, then any lone tokens; c: (M, 1 or N, H)."""
+        m, n, h = x.shape
+        rows = b * t
+        mod = _linear(c, self.mod_w, self.mod_b)  # (M, 1 or N, 6H)
         shift1, scale1, gate1, shift2, scale2, gate2 = mod.chunk(6, dim=-1)
         p = self.dropout if self.training else 0.0
 
-        y = _modulate(F.layer_norm(x, (h,)), shift1, scale1).reshape(m, b * t, h)
-        if t == 1:
+        y = F.layer_norm(x, (h,)) * (1 + scale1) + shift1
+        qkv = _linear(y[:, :rows], self.qkv_w, self.qkv_b)  # (M, B*T, 3H)
+        qkv = qkv.reshape(m * b, t, 3, self.heads, h // self.heads).permute(2, 0, 3, 1, 4)
+        attn = F.scaled_dot_product_attention(qkv[0], qkv[1], qkv[2], attn_mask=attn_mask)
+        attn = attn.transpose(1, 2).reshape(m, rows, h)  # (M, B*T, H)
+        if n > rows:
             # A lone token attends only to itself: the softmax is 1 and attention returns V.
-            attn = _linear(y, self.qkv_w[..., 2 * h :], self.qkv_b[..., 2 * h :])  # (M, B, H)
-        else:
-            qkv = _linear(y, self.qkv_w, self.qkv_b)  # (M, B*T, 3H)
-            qkv = qkv.reshape(m * b, t, 3, self.heads, h // self.heads).permute(2, 0, 3, 1, 4)
-            attn = F.scaled_dot_product_attention(qkv[0], qkv[1], qkv[2], attn_mask=attn_mask)
-            attn = attn.transpose(1, 2).reshape(m, b * t, h)  # (M, B*T, H)
-        attn = F.dropout(_linear(attn, self.proj_w, self.proj_b), p, self.training)
-        x = x + gate1.unsqueeze(2) * attn.reshape(m, b, t, h)
+            lone_v = _linear(y[:, rows:], self.qkv_w[..., 2 * h :], self.qkv_b[..., 2 * h :])
+            attn = torch.cat([attn, lone_v], dim=1)
+        x = x + gate1 * F.dropout(_linear(attn, self.proj_w, self.proj_b), p, self.training)
 
-        y = _modulate(F.layer_norm(x, (h,)), shift2, scale2).reshape(m, b * t, h)
+        y = F.layer_norm(x, (h,)) * (1 + scale2) + shift2
         y = F.gelu(_linear(y, self.fc1_w, self.fc1_b))
-        y = F.dropout(_linear(y, self.fc2_w, self.fc2_b), p, self.training)
-        return x + gate2.unsqueeze(2) * y.reshape(m, b, t, h)
+        return x + gate2 * F.dropout(_linear(y, self.fc2_w, self.fc2_b), p, self.training)

@@ -235,12 +235,12 @@ class ComposedScore:
             q_roles = self.query_token.unsqueeze(2).expand(-1, -1, b).reshape(f, -1, 1)
         if not per_factor:
             level = sigma.reshape(1, 1).expand(f, 1)  # one noise level for every row
-            out = self.bank.denoise(x, level, present)
-            out_q = None
-            if xq is not None:
-                q_present = torch.ones(xq.shape[:3], dtype=torch.bool)
-                out_q = self.bank.denoise(xq, level, q_present, q_roles)
-            return out, out_q
+            if xq is None:
+                return self.bank.denoise(x, level, present), None
+            assert q_roles is not None
+            # One pass: the queries ride along as lone tokens of the same matmuls.
+            out, out_lone = self.bank.denoise_with_lone(x, level, present, xq.squeeze(2), q_roles.squeeze(2))
+            return out, out_lone.unsqueeze(2)
         singles = getattr(self.bank, "singles", None)
         if singles is None:
             raise ValueError("per-factor evaluation needs a stack with per-factor models ('singles')")

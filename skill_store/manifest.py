@@ -123,6 +123,15 @@ class Training(_Strict):
     command: str | None = Field(default=None, max_length=8192)
     notes: str | None = Field(default=None, max_length=8192)
 
+    @field_validator("metrics")
+    @classmethod
+    def _finite_metrics(cls, metrics: dict[str, float]) -> dict[str, float]:
+        # JSON has no NaN or infinity: such a metric would not read back.
+        bad = sorted(k for k, v in metrics.items() if not math.isfinite(v))
+        if bad:
+            raise ValueError(f"metrics {bad} are not finite numbers; leave a metric out instead")
+        return metrics
+
 
 class WeightsInfo(_Strict):
     file: Literal["model.safetensors"] = "model.safetensors"

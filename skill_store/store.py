@@ -34,7 +34,13 @@ from skill_store.aliases import (
 )
 from skill_store.backend import StoreBackend, open_backend
 from skill_store.checkpoint import load_checked, serialise, sha256_hex
-from skill_store.errors import IntegrityError, PublishError, SkillNotFoundError, SkillStoreError
+from skill_store.errors import (
+    IntegrityError,
+    ManifestError,
+    PublishError,
+    SkillNotFoundError,
+    SkillStoreError,
+)
 from skill_store.manifest import (
     MANIFEST_FILE,
     MAX_MANIFEST_BYTES,
@@ -257,6 +263,10 @@ class SkillStore:
         manifest's version number is replaced by the one allocated). Refuses a pair that fails
         the load-time checks, so nothing unloadable is ever published."""
         load_checked(manifest, data)
+        try:  # what is published must read back (before a version number is spent on it)
+            parse_manifest(manifest.to_json_bytes(), f"the manifest for {manifest.name}")
+        except ManifestError as error:
+            raise PublishError(str(error)) from None
         name = manifest.name
         version = self._claim_next_version(name)
         # created_at is when this store got the version (a pushed checkpoint keeps its training record).

@@ -335,3 +335,25 @@ def test_no_module_of_the_store_can_unpickle() -> None:
 def test_verify_of_an_unknown_skill_is_an_error_not_an_empty_success(store: SkillStore) -> None:
     with pytest.raises(SkillNotFoundError, match=r"no published version of pick\.hammer"):
         store.verify(["pick.hammer"])
+
+
+def test_metrics_that_json_cannot_hold_are_refused_at_publish(
+    store: SkillStore, model: StackedDenoiser
+) -> None:
+    with pytest.raises(PublishError, match="not finite"):
+        store.publish("pick.hammer", model, {"metrics": {"loss": float("nan")}})
+    assert store.skills() == []
+
+
+def test_a_manifest_that_would_not_read_back_is_refused_before_a_number_is_spent(
+    store: SkillStore, model: StackedDenoiser
+) -> None:
+    store.publish("pick.hammer", model)
+    manifest, data = store.weights_bytes("pick.hammer@1")
+    # model_copy skips validation, as a hand-built manifest might.
+    broken = manifest.model_copy(
+        update={"name": "pick.wrench", "created_at": manifest.created_at.replace(tzinfo=None)}
+    )
+    with pytest.raises(PublishError, match="created_at"):
+        store.publish_checkpoint(broken, data)
+    assert store.publish_checkpoint(manifest.model_copy(update={"name": "pick.wrench"}), data) == 1

@@ -18,7 +18,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from skill_store.backend import StoreBackend
-from skill_store.errors import ManifestError
+from skill_store.errors import InvalidNameError, ManifestError
 from skill_store.manifest import utc_now
 from skill_store.names import validate_alias
 
@@ -47,7 +47,7 @@ class AuditEntry(BaseModel):
     alias: str | None = None
     previous: int | None = None  # the alias's target before the move
     actor: str
-    reason: str | None = None
+    reason: str | None = Field(default=None, max_length=2000)
 
 
 def current_actor() -> str:
@@ -64,12 +64,20 @@ def read_aliases(backend: StoreBackend, name: str) -> dict[str, int]:
     out: dict[str, int] = {}
     for file in backend.list_names(name, ALIASES_DIR):
         alias, dot, ext = file.rpartition(".")
-        if ext != "json" or not dot:
-            continue  # temp files of an alias being replaced
+        if ext != "json" or not dot or not is_alias(alias):
+            continue  # temp files of an alias being replaced, stray files
         record = read_alias(backend, name, alias)
         if record is not None:
             out[alias] = record.version
     return out
+
+
+def is_alias(text: str) -> bool:
+    try:
+        validate_alias(text)
+    except InvalidNameError:
+        return False
+    return True
 
 
 def read_alias(backend: StoreBackend, name: str, alias: str) -> AliasRecord | None:
@@ -88,10 +96,10 @@ def read_alias(backend: StoreBackend, name: str, alias: str) -> AliasRecord | No
 
 def append_audit(backend: StoreBackend, entry: AuditEntry) -> None:
     stamp = entry.at.strftime("%Y%m%dT%H%M%S.%fZ")
-    # Sorting file names sorts entries by time; the random part keeps simultaneous ones apart.
-    backend.create_exclusive(
-        entry.model_dump_json().encode(), entry.name, AUDIT_DIR, f"{stamp}-{uuid.uuid4().hex[:12]}.json"
-    )
+    # Sorting file names sorts entries by time; the random part keeps simultaneous ones apart,
+    # so each entry has a file of its own, written whole (readers never see half an entry).
+    file = f"{stamp}-{uuid.uuid4().hex[:12]}.json"
+    backend.replace_file(entry.model_dump_json().encode(), entry.name, AUDIT_DIR, file)
 
 
 def read_audit(backend: StoreBackend, name: str) -> list[AuditEntry]:
@@ -101,7 +109,11 @@ def read_audit(backend: StoreBackend, name: str) -> list[AuditEntry]:
         if not file.endswith(".json"):
             continue
         data = backend.read_bytes(name, AUDIT_DIR, file, max_bytes=MAX_RECORD_BYTES)
-        entries.append(AuditEntry.model_validate_json(data))
+        try:
+            entries.append(AuditEntry.model_validate_json(data))
+        except ValidationError as error:
+            where = backend.path(name, AUDIT_DIR, file)
+            raise ManifestError(f"audit entry {where} is unreadable ({error})") from None
     return entries
 
 
@@ -145,5 +157,5 @@ def remove_alias(
         reason=reason,
     )
     append_audit(backend, entry)
-    backend.fs.rm_file(backend.path(name, ALIASES_DIR, f"{alias}.json"))
+    backend.remove_file(name, ALIASES_DIR, f"{alias}.json")
     return entry

@@ -84,6 +84,9 @@ class StoreBackend:
         self.fs.makedirs(posixpath.dirname(path), exist_ok=True)
         self.fs.pipe_file(path, data)
 
+    def remove_file(self, *parts: str) -> None:
+        self.fs.rm_file(self.path(*parts))
+
     def publish_folder(self, files: dict[str, bytes], commit_file: str, *parts: str) -> None:
         """Make a folder with these files appear; ``commit_file`` is written last and marks it done.
 

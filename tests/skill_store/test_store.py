@@ -357,3 +357,18 @@ def test_a_manifest_that_would_not_read_back_is_refused_before_a_number_is_spent
     with pytest.raises(PublishError, match="created_at"):
         store.publish_checkpoint(broken, data)
     assert store.publish_checkpoint(manifest.model_copy(update={"name": "pick.wrench"}), data) == 1
+
+
+def test_stray_files_do_not_disturb_listings(store: SkillStore, model: StackedDenoiser) -> None:
+    store.publish("pick.hammer", model, aliases=["production"])
+    for stray in (
+        "README.md",
+        ".DS_Store",
+        "Bad Name/1/manifest.json",
+        "pick.hammer/notes.txt",
+        "pick.hammer/aliases/Bad.json",
+    ):
+        store.backend.replace_file(b"junk", *stray.split("/"))
+    assert store.skills() == ["pick.hammer"]
+    assert store.versions("pick.hammer") == (1,)
+    assert store.aliases("pick.hammer") == {"production": 1}

@@ -53,7 +53,15 @@ from skill_store.manifest import (
     training_from_metadata,
     utc_now,
 )
-from skill_store.names import LATEST, MAX_VERSION, SkillRef, is_version_text, parse_ref, validate_name
+from skill_store.names import (
+    LATEST,
+    MAX_VERSION,
+    SkillRef,
+    is_version_text,
+    parse_ref,
+    validate_alias,
+    validate_name,
+)
 from skill_store.signature import signature_for
 
 CLAIMS_DIR = ".claims"
@@ -262,6 +270,8 @@ class SkillStore:
         """Store weights with their manifest as the next version of ``manifest.name`` (the
         manifest's version number is replaced by the one allocated). Refuses a pair that fails
         the load-time checks, so nothing unloadable is ever published."""
+        for alias in aliases:
+            validate_alias(alias)  # before publishing: a bad alias must not leave a version behind
         load_checked(manifest, data)
         try:  # what is published must read back (before a version number is spent on it)
             parse_manifest(manifest.to_json_bytes(), f"the manifest for {manifest.name}")

@@ -248,6 +248,9 @@ def test_alias_moves_are_logged_with_their_previous_target(store: SkillStore) ->
 def test_publish_can_move_aliases(store: SkillStore, model: StackedDenoiser) -> None:
     version = store.publish("pick.hammer", model, aliases=["latest", "canary"])
     assert store.aliases("pick.hammer") == {"latest": version, "canary": version}
+    with pytest.raises(InvalidNameError):
+        store.publish("pick.hammer", model, aliases=["../production"])
+    assert store.versions("pick.hammer") == (version,)
 
 
 def test_an_alias_cannot_point_at_a_missing_version(store: SkillStore, model: StackedDenoiser) -> None:

@@ -73,17 +73,25 @@ def _loc_of(parts: tuple[Any, ...]) -> str:
     return out or "plan"
 
 
+def issues_from_errors(errors: Any, drop_prefix: tuple[str, ...] = ()) -> list[PlanIssue]:
+    """Pydantic error dicts -> located ``PlanIssue``s whose locations read like JSON paths."""
+    issues = []
+    for err in errors:
+        loc = tuple(err["loc"])
+        if drop_prefix and loc[: len(drop_prefix)] == drop_prefix:
+            loc = loc[len(drop_prefix) :]
+        # Drop pydantic's union-member tags (e.g. "inside") from the path.
+        loc = tuple(p for p in loc if not (isinstance(p, str) and p in _UNION_TAGS))
+        issues.append(PlanIssue(_loc_of(loc), str(err["msg"])))
+    return issues
+
+
 def parse_plan(data: Any) -> PlanRequest:
     """Validate the request's shape, turning pydantic's errors into located ``PlanIssue``s."""
     try:
         return PlanRequest.model_validate(data)
     except ValidationError as exc:
-        issues = []
-        for err in exc.errors(include_url=False):
-            # Drop pydantic's union-member tags (e.g. "inside") so locations read like JSON paths.
-            loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in _UNION_TAGS))
-            issues.append(PlanIssue(_loc_of(loc), err["msg"]))
-        raise PlanError(issues) from None
+        raise PlanError(issues_from_errors(exc.errors(include_url=False))) from None
 
 
 _UNION_TAGS = {
@@ -564,4 +572,4 @@ def compile_plan(plan: PlanRequest | dict[str, Any]) -> CompiledPlan:
     return _Compiler(request).run()
 
 
-__all__ = ["PlanError", "PlanIssue", "compile_plan", "load_plan", "parse_plan"]
+__all__ = ["PlanError", "PlanIssue", "compile_plan", "issues_from_errors", "load_plan", "parse_plan"]

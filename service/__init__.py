@@ -1,0 +1,1 @@
+"""The planning service: FastAPI app, request limits, metrics (verification jobs come next)."""

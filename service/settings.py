@@ -1,0 +1,23 @@
+"""Service settings, read from the environment (``GFC_*``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="GFC_", extra="ignore")
+
+    host: str = "127.0.0.1"
+    port: int = Field(8000, ge=0, le=65535)
+    data_dir: Path = Field(Path("var"), description="job database, renders, logs")
+    skill_store: str | None = Field(None, description="path or fsspec URL; default: the packaged library")
+    max_body_bytes: int = Field(1_000_000, ge=1_000, description="larger requests get 413")
+    max_concurrent_plans: int = Field(2, ge=1, description="plans sampled at the same time")
+    max_queued_plans: int = Field(8, ge=0, description="plans waiting beyond that; more get 503")
+    retry_after_s: int = Field(1, ge=1, description="Retry-After sent with 503")
+    torch_threads: int = Field(1, ge=1, description="CPU threads per planning call")
+    log_json: bool = True

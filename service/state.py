@@ -1,0 +1,20 @@
+"""Everything a request handler needs, built once per app."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from gfc.planner.library import SkillLibrary
+from service.catalog import SkillCatalog
+from service.limits import Admission
+from service.metrics import Metrics
+from service.settings import Settings
+
+
+@dataclass
+class ServiceState:
+    settings: Settings
+    library: SkillLibrary
+    catalog: SkillCatalog
+    admission: Admission
+    metrics: Metrics

@@ -1,0 +1,77 @@
+"""``gfc serve`` as a user starts it: a subprocess on a free port, a skill store on disk."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import httpx
+import pytest
+
+from gfc.examples import load_example
+from gfc.plan import compile_plan
+from gfc.planner.library import random_library
+from skill_store import SkillStore
+from tests.service.conftest import free_port
+
+
+@contextmanager
+def gfc_serve(store: Path, data_dir: Path) -> Iterator[str]:
+    port = free_port()
+    env = {**os.environ, "GFC_DATA_DIR": str(data_dir), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "gfc.cli", "serve", "--port", str(port), "--store", str(store)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                if httpx.get(f"{url}/health/live", timeout=2).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            if proc.poll() is not None or time.monotonic() > deadline:
+                output = proc.stdout.read() if proc.stdout else ""
+                raise RuntimeError(f"gfc serve did not come up:\n{output}")
+            time.sleep(0.2)
+        yield url
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)
+
+
+@pytest.mark.slow
+def test_serve_plans_with_skills_from_the_store(tmp_path: Path) -> None:
+    store = SkillStore(tmp_path / "skills")
+    compiled = compile_plan(load_example("hammer_place"))
+    for name, model in random_library(compiled).models.items():
+        store.publish(name, model, {"seed": 0, "command": "tests: random weights"})
+    plan = load_example("hammer_place")
+    plan["options"] = {"candidates": 4, "top_k": 2, "steps": 5, "seed": 0}
+    with gfc_serve(tmp_path / "skills", tmp_path / "var") as url:
+        assert httpx.get(f"{url}/health/ready", timeout=60).status_code == 200
+        skills = httpx.get(f"{url}/skills", timeout=60).json()
+        assert {s["name"] for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer"}
+        response = httpx.post(f"{url}/plan", json=plan, timeout=120)
+        assert response.status_code == 200, response.text
+        assert response.json()["models"]["pick.hammer"] == "pick.hammer@1"
+    assert (tmp_path / "var").is_dir()
+
+
+@pytest.mark.slow
+def test_serve_with_an_empty_store_is_live_but_not_ready(tmp_path: Path) -> None:
+    with gfc_serve(tmp_path / "empty", tmp_path / "var") as url:
+        ready = httpx.get(f"{url}/health/ready", timeout=30)
+        assert ready.status_code == 503
+        plan = httpx.post(f"{url}/plan", json=load_example("hammer_place"), timeout=30)
+        assert plan.status_code == 404

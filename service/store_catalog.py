@@ -14,9 +14,9 @@ class StoreCatalog:
         self.library = library
 
     def describe(self, name: str) -> SkillSummary:
-        if name not in self.store.skills():
+        state = self.store.state(name)  # SkillNotFoundError is a KeyError
+        if not state.versions:
             raise KeyError(name)
-        state = self.store.state(name)
         versions = []
         for version in state.versions:
             try:

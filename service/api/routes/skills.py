@@ -20,5 +20,5 @@ def list_skills(state: StateDep) -> list[SkillSummary]:
 def get_skill(name: str, state: StateDep) -> SkillSummary:
     try:
         return state.catalog.describe(name)
-    except KeyError:
+    except (KeyError, ValueError):  # unknown, or not even a valid name
         raise HTTPException(404, f"no skill named {name!r}; GET /skills lists them") from None

@@ -12,8 +12,9 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from gfc import __version__
 from gfc.plan.compiler import issues_from_errors
 from gfc.planner.library import SkillLibrary
-from service.api.routes import health, metrics, plan, skills
+from service.api.routes import health, metrics, plan, skills, verify
 from service.catalog import SkillCatalog
+from service.jobs import JobStore, open_job_store
 from service.limits import Admission
 from service.metrics import Metrics
 from service.middleware import RequestContext
@@ -25,8 +26,11 @@ def _request_id(request: Request) -> str:
     return str(request.scope.get("state", {}).get("request_id", ""))
 
 
-def create_app(settings: Settings, library: SkillLibrary, catalog: SkillCatalog) -> FastAPI:
-    """The service around a skill library. ``gfc serve`` passes the skill store's library."""
+def create_app(
+    settings: Settings, library: SkillLibrary, catalog: SkillCatalog, jobs: JobStore | None = None
+) -> FastAPI:
+    """The service around a skill library. ``gfc serve`` passes the skill store's library; the
+    job store defaults to ``settings.job_store_url()`` (a SQLite file under the data dir)."""
     app = FastAPI(
         title="gfc planning service",
         version=__version__,
@@ -41,8 +45,9 @@ def create_app(settings: Settings, library: SkillLibrary, catalog: SkillCatalog)
         catalog=catalog,
         admission=Admission(settings.max_concurrent_plans, settings.max_queued_plans),
         metrics=Metrics.create(),
+        jobs=jobs or open_job_store(settings.job_store_url()),
     )
-    for router in (plan.router, skills.router, health.router, metrics.router):
+    for router in (plan.router, verify.router, skills.router, health.router, metrics.router):
         app.include_router(router)
 
     @app.exception_handler(RequestValidationError)

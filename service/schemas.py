@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, Field
 
 
@@ -48,6 +50,7 @@ class Candidate(BaseModel):
 
 class PlanResponse(BaseModel):
     request_id: str
+    plan_id: str = Field(description="names this plan and its candidates in POST /verify")
     candidates: list[Candidate]
     models: dict[str, str] = Field(description="model reference -> version used")
     timing: dict[str, float]
@@ -64,3 +67,33 @@ class SkillSummary(BaseModel):
     name: str
     versions: list[SkillVersion]
     aliases: dict[str, str] = Field(default_factory=dict)
+
+
+class VerifyRequest(BaseModel):
+    """Either a plan with its candidates, or the id of a plan this service returned."""
+
+    plan: dict[str, Any] | None = Field(None, description="the plan JSON (as for POST /plan)")
+    candidates: list[dict[str, Any]] | None = Field(None, description="candidates as POST /plan returns them")
+    plan_id: str | None = Field(None, description="a plan_id from POST /plan: verify its candidates")
+    top_k: int | None = Field(None, ge=1, description="verify only the best k candidates")
+    seed: int = Field(0, ge=0, description="simulator seed")
+    max_attempts: int = Field(3, ge=1, le=10, description="workers that may try before the job fails")
+
+
+class JobAccepted(BaseModel):
+    job_id: str
+    status: str
+    url: str
+
+
+class JobView(BaseModel):
+    id: str
+    kind: str
+    status: str
+    attempts: int
+    max_attempts: int
+    worker: str | None
+    result: dict[str, Any] | None
+    error: str | None
+    created_at: float
+    updated_at: float

@@ -15,6 +15,15 @@ class Settings(BaseSettings):
     port: int = Field(8000, ge=0, le=65535)
     data_dir: Path = Field(Path("var"), description="job database, renders, logs")
     skill_store: str | None = Field(None, description="path or fsspec URL; default: the packaged library")
+    database_url: str | None = Field(
+        None, description="job store: sqlite:///PATH or postgresql://...; default: DATA_DIR/jobs.db"
+    )
+    verify_processes: int = Field(1, ge=1, description="simulator processes per verification job")
+    max_verify_candidates: int = Field(20, ge=1, description="candidates one verification job may carry")
+
+    def job_store_url(self) -> str:
+        return self.database_url or f"sqlite:///{self.data_dir / 'jobs.db'}"
+
     max_body_bytes: int = Field(1_000_000, ge=1_000, description="larger requests get 413")
     max_concurrent_plans: int = Field(2, ge=1, description="plans sampled at the same time")
     max_queued_plans: int = Field(8, ge=0, description="plans waiting beyond that; more get 503")

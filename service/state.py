@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from gfc.planner.library import SkillLibrary
 from service.catalog import SkillCatalog
+from service.jobs import JobStore
 from service.limits import Admission
 from service.metrics import Metrics
 from service.settings import Settings
@@ -18,3 +19,4 @@ class ServiceState:
     catalog: SkillCatalog
     admission: Admission
     metrics: Metrics
+    jobs: JobStore

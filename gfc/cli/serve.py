@@ -1,7 +1,11 @@
-"""``gfc serve``: the planning service with the default skill library."""
+"""``gfc serve`` (the planning service with the default skill library) and ``gfc worker``."""
 
 from __future__ import annotations
 
+import contextlib
+import subprocess
+import sys
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -16,12 +20,15 @@ def register_serve_command(app: typer.Typer) -> None:
             str | None,
             typer.Option(help="skill store path or URL (env GFC_SKILL_STORE; default: packaged library)"),
         ] = None,
+        worker: Annotated[bool, typer.Option(help="also start a verification worker process")] = True,
     ) -> None:
-        """Run the planning service: POST /plan, GET /skills, health, metrics, docs at /docs.
+        """Run the planning service: POST /plan, POST /verify, GET /jobs/{id}, GET /skills,
+        health, metrics, and API docs at /docs.
 
-        Settings come from the environment (GFC_HOST, GFC_PORT, GFC_DATA_DIR, GFC_SKILL_STORE,
-        GFC_MAX_BODY_BYTES, GFC_MAX_CONCURRENT_PLANS, GFC_MAX_QUEUED_PLANS, ...); options
-        override them. Example:
+        State (the job database, rendered frames) lives under GFC_DATA_DIR (default ./var);
+        GFC_DATABASE_URL=postgresql://... puts jobs in PostgreSQL instead. Other settings:
+        GFC_MAX_BODY_BYTES, GFC_MAX_CONCURRENT_PLANS, GFC_MAX_QUEUED_PLANS, GFC_TORCH_THREADS.
+        Example:
 
           gfc serve --port 8000 &
           curl -s localhost:8000/health/ready
@@ -43,7 +50,54 @@ def register_serve_command(app: typer.Typer) -> None:
         skill_store = SkillStore(settings.skill_store or DEFAULT_LIBRARY)
         library = StoreLibrary(skill_store)
         app = create_app(settings, library, StoreCatalog(skill_store, library))
+        child = None
+        if worker:
+            child = subprocess.Popen(
+                [sys.executable, "-m", "gfc.cli", "worker", "--database", settings.job_store_url(),
+                 "--data-dir", str(settings.data_dir), "--processes", str(settings.verify_processes)]
+            )  # fmt: skip
         typer.echo(
             f"gfc planning service on http://{settings.host}:{settings.port} (skills: {skill_store.location})"
         )
-        uvicorn.run(app, host=settings.host, port=settings.port, log_level="info")
+        try:
+            uvicorn.run(app, host=settings.host, port=settings.port, log_level="info")
+        finally:
+            if child is not None:
+                child.terminate()
+                child.wait(timeout=30)
+
+    @app.command("worker")
+    def worker_command(
+        database: Annotated[
+            str | None, typer.Option(help="job store URL (env GFC_DATABASE_URL; default DATA_DIR/jobs.db)")
+        ] = None,
+        data_dir: Annotated[
+            Path | None, typer.Option(help="where rendered frames go (env GFC_DATA_DIR)")
+        ] = None,
+        processes: Annotated[int, typer.Option(min=1, help="simulator processes per job")] = 1,
+        lease: Annotated[
+            float, typer.Option(min=1.0, help="seconds a claimed job stays ours without a heartbeat")
+        ] = 30.0,
+    ) -> None:
+        """Verify candidates in the simulator: claim jobs from the job store, execute, report.
+
+        Run as many as you like against one database (PostgreSQL for several machines). A
+        worker that dies mid-job stops renewing its lease; after --lease seconds another worker
+        takes the job over; after the job's attempt cap it is failed, never run forever.
+        """
+        import logging
+
+        from service.jobs import open_job_store
+        from service.settings import Settings
+        from service.worker import verification_worker
+
+        logging.basicConfig(level=logging.INFO, format="%(message)s")
+        overrides = {
+            k: v for k, v in {"database_url": database, "data_dir": data_dir}.items() if v is not None
+        }
+        settings = Settings(**overrides)  # type: ignore[arg-type]
+        store = open_job_store(settings.job_store_url())
+        runner = verification_worker(store, settings.data_dir, processes=processes, lease_s=lease)
+        typer.echo(f"gfc worker {runner.name} on {settings.job_store_url()}")
+        with contextlib.suppress(KeyboardInterrupt):
+            runner.run_forever()

@@ -39,6 +39,13 @@ CREATE TABLE IF NOT EXISTS gfc_jobs (
 )
 """
 INDEX = "CREATE INDEX IF NOT EXISTS gfc_jobs_claim ON gfc_jobs (status, created_at)"
+PLANS = """
+CREATE TABLE IF NOT EXISTS gfc_plans (
+    id TEXT PRIMARY KEY,
+    body TEXT NOT NULL,
+    created_at DOUBLE PRECISION NOT NULL
+)
+"""
 CLAIMABLE = "(status = 'queued' OR (status = 'running' AND lease_expires_at < {p}))"
 
 
@@ -176,6 +183,20 @@ class JobStore(ABC):
             )
             return bool(cur.rowcount == 1)
 
+    def save_plan(self, plan_id: str, body: dict[str, Any]) -> None:
+        """Keep a planned request and its candidates, so ``POST /verify`` can name it by id."""
+        with self._transaction() as cur:
+            cur.execute(
+                self._sql("INSERT INTO gfc_plans (id, body, created_at) VALUES ({p}, {p}, {p})"),
+                (plan_id, json.dumps(body), time.time()),
+            )
+
+    def get_plan(self, plan_id: str) -> dict[str, Any] | None:
+        with self._transaction() as cur:
+            cur.execute(self._sql("SELECT body FROM gfc_plans WHERE id = {p}"), (plan_id,))
+            row = cur.fetchone()
+        return None if row is None else dict(json.loads(row[0]))
+
     def counts(self) -> dict[str, int]:
         with self._transaction() as cur:
             cur.execute("SELECT status, COUNT(*) FROM gfc_jobs GROUP BY status")
@@ -196,6 +217,7 @@ class SqliteJobStore(JobStore):
         with self._transaction() as cur:
             cur.execute(SCHEMA)
             cur.execute(INDEX)
+            cur.execute(PLANS)
         connection = self._connect()
         connection.execute("PRAGMA journal_mode=WAL")
         connection.close()
@@ -233,6 +255,7 @@ class PostgresJobStore(JobStore):
             cur.execute("SELECT pg_advisory_xact_lock(4242)")  # two processes creating the table at once
             cur.execute(SCHEMA)
             cur.execute(INDEX)
+            cur.execute(PLANS)
 
     @contextmanager
     def _transaction(self, claim: bool = False) -> Iterator[Any]:

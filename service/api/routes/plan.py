@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import time
+import uuid
 
 import torch
 from fastapi import APIRouter
@@ -63,9 +64,15 @@ async def plan(
         )
     finally:
         state.metrics.plans_in_flight.set(state.admission.in_flight)
+    plan_id = uuid.uuid4().hex
+    # Kept so that POST /verify can name this plan by its id.
+    await asyncio.to_thread(
+        state.jobs.save_plan, plan_id, {"plan": request.to_json_dict(), "candidates": result.candidates}
+    )
     return PlanResponse.model_validate(
         {
             "request_id": request_id,
+            "plan_id": plan_id,
             "candidates": result.candidates,
             "models": result.models,
             "timing": result.timing,

@@ -75,3 +75,37 @@ def test_serve_with_an_empty_store_is_live_but_not_ready(tmp_path: Path) -> None
         assert ready.status_code == 503
         plan = httpx.post(f"{url}/plan", json=load_example("hammer_place"), timeout=30)
         assert plan.status_code == 404
+
+
+@pytest.mark.slow
+def test_corrupted_version_is_refused_while_the_previous_keeps_serving(tmp_path: Path) -> None:
+    root = tmp_path / "skills"
+    store = SkillStore(root)
+    compiled = compile_plan(load_example("hammer_place"))
+    models = random_library(compiled).models
+    for name, model in models.items():
+        store.publish(name, model, {"seed": 0, "command": "tests: random weights"})
+    plan = load_example("hammer_place")
+    plan["options"] = {"candidates": 2, "top_k": 1, "steps": 3, "seed": 0}
+    with gfc_serve(root, tmp_path / "var") as url:
+        first = httpx.post(f"{url}/plan", json=plan, timeout=120)
+        assert first.json()["models"]["pick.hammer"] == "pick.hammer@1"
+        # A new version is published, then its weights rot on disk before anyone loads them.
+        assert store.publish("pick.hammer", models["pick.hammer"], {"seed": 1, "command": "tests"}) == 2
+        weights = root / "pick.hammer" / "2" / "model.safetensors"
+        data = bytearray(weights.read_bytes())
+        data[len(data) // 2] ^= 0xFF
+        weights.write_bytes(bytes(data))
+        time.sleep(2.5)  # the service re-reads skill states every 2 s
+        second = httpx.post(f"{url}/plan", json=plan, timeout=120)
+        assert second.status_code == 200, second.text
+        assert second.json()["models"]["pick.hammer"] == "pick.hammer@1"  # still serving
+        versions = {
+            v["version"]: v for v in httpx.get(f"{url}/skills/pick.hammer", timeout=60).json()["versions"]
+        }
+        assert versions["1"]["ready"] and not versions["2"]["ready"]
+        assert "sha256" in versions["2"]["detail"] or "hash" in versions["2"]["detail"]
+        plan["skeleton"][0]["model"] = "pick.hammer@2"  # asking for it explicitly is refused
+        pinned = httpx.post(f"{url}/plan", json=plan, timeout=120)
+        assert pinned.status_code == 503
+        assert pinned.json()["error"] == "skill version unavailable"

@@ -17,6 +17,7 @@ from service.deps import RequestIdDep, StateDep
 from service.limits import Overloaded
 from service.schemas import ErrorResponse, PlanResponse
 from service.state import ServiceState
+from skill_store import IntegrityError
 
 router = APIRouter(tags=["planning"])
 
@@ -62,6 +63,12 @@ async def plan(
         return _error(
             404, "unknown skill model", request_id, [{"loc": "skeleton", "message": str(exc.args[0])}]
         )
+    except IntegrityError as exc:  # an explicitly pinned version that fails its checks
+        return _error(
+            503, "skill version unavailable", request_id, [{"loc": "skeleton", "message": str(exc)}]
+        )
+    except ValueError as exc:  # e.g. a model reference the store refuses ("../x")
+        return _error(422, "invalid plan", request_id, [{"loc": "skeleton", "message": str(exc)}])
     finally:
         state.metrics.plans_in_flight.set(state.admission.in_flight)
     plan_id = uuid.uuid4().hex

@@ -138,3 +138,35 @@ def test_restarted_service_still_knows_its_jobs(tmp_path: Path) -> None:
         )
         worker.run_once()
         assert httpx.get(f"{url}/jobs/{job_id}", timeout=30).json()["status"] == "succeeded"
+
+
+@pytest.mark.slow
+def test_plan_then_verify_by_plan_id_then_poll(tmp_path: Path) -> None:
+    """The whole user flow over HTTP: plan, verify the returned plan by id, poll the job."""
+    from gfc.plan import compile_plan
+    from gfc.planner.library import random_library
+
+    task = sample_task("hammer_place", 1)
+    plan = task.plan.to_json_dict()
+    plan["options"] = {"candidates": 3, "top_k": 2, "steps": 4, "seed": 0}
+    library = random_library(compile_plan(task.plan))  # untrained: candidates will fail, honestly
+    settings = Settings(data_dir=tmp_path / "var")
+    with running_server(settings, library) as url:
+        planned = httpx.post(f"{url}/plan", json=plan, timeout=120).json()
+        accepted = httpx.post(f"{url}/verify", json={"plan_id": planned["plan_id"], "top_k": 2}, timeout=30)
+        assert accepted.status_code == 202, accepted.text
+        job_url = f"{url}{accepted.json()['url']}"
+        worker = verification_worker(
+            open_job_store(settings.job_store_url()), settings.data_dir, pool=InlinePool()
+        )
+        worker.run_once()
+        job = httpx.get(job_url, timeout=30).json()
+        assert job["status"] == "succeeded"
+        ranks = [c["rank"] for c in job["result"]["candidates"]]
+        assert ranks == [0, 1]
+        for candidate in job["result"]["candidates"]:
+            assert candidate["steps"], candidate  # at least the first step was attempted
+            failed = [s for s in candidate["steps"] if not s["success"]]
+            assert all(s["failure_type"] in (1, 2, 3) and s["reason"] for s in failed)
+        missing = httpx.post(f"{url}/verify", json={"plan_id": "nope"}, timeout=30)
+        assert missing.status_code == 404

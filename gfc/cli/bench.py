@@ -53,3 +53,35 @@ def latency(
     if json_file is not None:
         json_file.parent.mkdir(parents=True, exist_ok=True)
         json_file.write_text(json.dumps(result, indent=2) + "\n")
+
+
+@bench_app.command()
+def load(
+    clients: Annotated[int, typer.Option(min=1, max=256, help="concurrent clients")] = 16,
+    requests: Annotated[
+        int, typer.Option(min=1, max=100_000, help="requests in total (an upper bound)")
+    ] = 200,
+    duration: Annotated[float, typer.Option(min=1, max=600, help="seconds at most")] = 60.0,
+    candidates: Annotated[int, typer.Option(min=1, help="candidates per plan")] = 10,
+    steps: Annotated[int, typer.Option(min=1, help="sampling steps per plan")] = 50,
+    json_file: Annotated[
+        Path | None, typer.Option("--json", help="also write the raw result as JSON here")
+    ] = None,
+    markdown: Annotated[Path, typer.Option(help="where the table goes")] = Path("docs/bench/load.md"),
+) -> None:
+    """Many concurrent clients against a real uvicorn on loopback (bounded in count and time):
+    throughput, p50/p99 latency and every status code seen. Overload must show up as 503 with
+    Retry-After, never as another 5xx."""
+    from service.load_bench import load_markdown, run_load
+
+    result = run_load(
+        clients=clients, requests=requests, duration_s=duration, candidates=candidates, steps=steps
+    )
+    command = "gfc bench load " + " ".join(sys.argv[3:])
+    text = load_markdown(result, command.strip())
+    Console().print(text)
+    markdown.parent.mkdir(parents=True, exist_ok=True)
+    markdown.write_text(text)
+    if json_file is not None:
+        json_file.parent.mkdir(parents=True, exist_ok=True)
+        json_file.write_text(json.dumps(result, indent=2) + "\n")

@@ -108,7 +108,7 @@ def run_load(
             s.bind(("127.0.0.1", 0))
             port = int(s.getsockname()[1])
     plan = load_example("hammer_place")
-    plan["options"] = {"candidates": candidates, "top_k": 5, "steps": steps, "seed": 0}
+    plan["options"] = {"candidates": candidates, "top_k": min(5, candidates), "steps": steps, "seed": 0}
     settings = settings or Settings(data_dir=Path("var/bench"))
     with _server(settings, port) as url:
         result = asyncio.run(_drive(url, clients, requests, duration_s, plan))

@@ -12,6 +12,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from gfc import __version__
 from gfc.plan.compiler import issues_from_errors
 from gfc.planner.library import SkillLibrary
+from service.admin import SkillAdmin
+from service.api.routes import admin as admin_routes
 from service.api.routes import health, metrics, plan, skills, verify
 from service.catalog import SkillCatalog
 from service.jobs import JobStore, open_job_store
@@ -27,7 +29,11 @@ def _request_id(request: Request) -> str:
 
 
 def create_app(
-    settings: Settings, library: SkillLibrary, catalog: SkillCatalog, jobs: JobStore | None = None
+    settings: Settings,
+    library: SkillLibrary,
+    catalog: SkillCatalog,
+    jobs: JobStore | None = None,
+    admin: SkillAdmin | None = None,
 ) -> FastAPI:
     """The service around a skill library. ``gfc serve`` passes the skill store's library; the
     job store defaults to ``settings.job_store_url()`` (a SQLite file under the data dir)."""
@@ -46,8 +52,16 @@ def create_app(
         admission=Admission(settings.max_concurrent_plans, settings.max_queued_plans),
         metrics=Metrics.create(),
         jobs=jobs or open_job_store(settings.job_store_url()),
+        admin=admin,
     )
-    for router in (plan.router, verify.router, skills.router, health.router, metrics.router):
+    for router in (
+        plan.router,
+        verify.router,
+        skills.router,
+        health.router,
+        metrics.router,
+        admin_routes.router,
+    ):
         app.include_router(router)
 
     @app.exception_handler(RequestValidationError)

@@ -30,3 +30,6 @@ class Settings(BaseSettings):
     retry_after_s: int = Field(1, ge=1, description="Retry-After sent with 503")
     torch_threads: int = Field(1, ge=1, description="CPU threads per planning call")
     log_json: bool = True
+    management_token: str | None = Field(
+        None, min_length=16, description="turns on /admin endpoints (load, unload, alias skill versions)"
+    )

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gfc.planner.library import SkillLibrary
+from service.admin import SkillAdmin
 from service.catalog import SkillCatalog
 from service.jobs import JobStore
 from service.limits import Admission
@@ -20,3 +21,4 @@ class ServiceState:
     admission: Admission
     metrics: Metrics
     jobs: JobStore
+    admin: SkillAdmin | None = None  # store-backed services only

@@ -53,6 +53,21 @@ class StoreLibrary:
         with self._lock:
             self._states.clear()
 
+    def unload(self, name: str, version: int | None = None) -> int:
+        """Drop cached models of ``name`` (one version, or all) and every bank built from them;
+        returns how many models were dropped. The next request loads (and checks) afresh."""
+
+        def matches(ref: ResolvedRef) -> bool:
+            return ref.name == name and (version is None or ref.version == version)
+
+        with self._lock:
+            dropped = [ref for ref in self._models if matches(ref)]
+            for ref in dropped:
+                del self._models[ref]
+            for key in [k for k in self._banks if any(matches(r) for r in k)]:
+                del self._banks[key]
+        return len(dropped)
+
     def model(self, resolved: ResolvedRef) -> StackedDenoiser:
         with self._lock:
             model = self._models.get(resolved)

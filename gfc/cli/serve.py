@@ -37,6 +37,7 @@ def register_serve_command(app: typer.Typer) -> None:
         """
         import uvicorn
 
+        from service.admin import SkillAdmin
         from service.fallback import FallbackLibrary
         from service.main import create_app
         from service.settings import Settings
@@ -50,7 +51,12 @@ def register_serve_command(app: typer.Typer) -> None:
         settings.data_dir.mkdir(parents=True, exist_ok=True)
         skill_store = SkillStore(settings.skill_store or DEFAULT_LIBRARY)
         library = StoreLibrary(skill_store)
-        app = create_app(settings, FallbackLibrary(library), StoreCatalog(skill_store, library))
+        app = create_app(
+            settings,
+            FallbackLibrary(library),
+            StoreCatalog(skill_store, library),
+            admin=SkillAdmin(skill_store, library),
+        )
         child = None
         if worker:
             child = subprocess.Popen(

@@ -122,3 +122,9 @@ def test_overload_answers_503_with_retry_after(library: InMemoryLibrary) -> None
     assert second.headers["retry-after"] == "2"
     assert second.json()["error"] == "overloaded"
     assert results == [200]
+
+
+def test_management_endpoints_are_off_without_a_token(client: httpx.Client) -> None:
+    response = client.post("/admin/skills/pick.hammer/unload")
+    assert response.status_code == 404
+    assert "GFC_MANAGEMENT_TOKEN" in response.json()["error"]

@@ -21,9 +21,9 @@ from tests.service.conftest import free_port
 
 
 @contextmanager
-def gfc_serve(store: Path, data_dir: Path) -> Iterator[str]:
+def gfc_serve(store: Path, data_dir: Path, **env_extra: str) -> Iterator[str]:
     port = free_port()
-    env = {**os.environ, "GFC_DATA_DIR": str(data_dir), "OMP_NUM_THREADS": "1"}
+    env = {**os.environ, "GFC_DATA_DIR": str(data_dir), "OMP_NUM_THREADS": "1", **env_extra}
     proc = subprocess.Popen(
         [sys.executable, "-m", "gfc.cli", "serve", "--port", str(port), "--store", str(store)],
         env=env,
@@ -109,3 +109,52 @@ def test_corrupted_version_is_refused_while_the_previous_keeps_serving(tmp_path:
         pinned = httpx.post(f"{url}/plan", json=plan, timeout=120)
         assert pinned.status_code == 503
         assert pinned.json()["error"] == "skill version unavailable"
+
+
+@pytest.mark.slow
+def test_management_needs_the_token_and_moves_aliases(tmp_path: Path) -> None:
+    root = tmp_path / "skills"
+    store = SkillStore(root)
+    models = random_library(compile_plan(load_example("hammer_place"))).models
+    for name, model in models.items():
+        store.publish(name, model, {"seed": 0, "command": "tests"})
+    store.publish("pick.hammer", models["pick.hammer"], {"seed": 1, "command": "tests"})  # version 2
+    token = "t0ken-for-tests-0123456789"
+    plan = load_example("hammer_place")
+    plan["options"] = {"candidates": 2, "top_k": 1, "steps": 3, "seed": 0}
+    plan["skeleton"][0]["model"] = "pick.hammer@production"
+    with gfc_serve(root, tmp_path / "var", GFC_MANAGEMENT_TOKEN=token) as url:
+        move = {"version": 1, "reason": "roll back"}
+        assert (
+            httpx.put(f"{url}/admin/skills/pick.hammer/aliases/production", json=move, timeout=30).status_code
+            == 401
+        )
+        wrong = {"Authorization": "Bearer nope"}
+        assert (
+            httpx.put(
+                f"{url}/admin/skills/pick.hammer/aliases/production", json=move, headers=wrong, timeout=30
+            ).status_code
+            == 401
+        )
+        auth = {"Authorization": f"Bearer {token}"}
+        moved = httpx.put(
+            f"{url}/admin/skills/pick.hammer/aliases/production", json=move, headers=auth, timeout=30
+        )
+        assert moved.status_code == 200, moved.text
+        assert (
+            httpx.post(f"{url}/plan", json=plan, timeout=120).json()["models"]["pick.hammer@production"]
+            == "pick.hammer@1"
+        )
+        move["version"] = 2
+        httpx.put(f"{url}/admin/skills/pick.hammer/aliases/production", json=move, headers=auth, timeout=30)
+        assert (
+            httpx.post(f"{url}/plan", json=plan, timeout=120).json()["models"]["pick.hammer@production"]
+            == "pick.hammer@2"
+        )
+        loaded = httpx.post(f"{url}/admin/skills/place.hammer/load", headers=auth, timeout=60)
+        assert loaded.json() == {"loaded": "place.hammer@1"}
+        assert (
+            httpx.post(f"{url}/admin/skills/pick.hammer/unload", headers=auth, timeout=30).json()["unloaded"]
+            == 2
+        )
+    assert [e.alias for e in store.audit_log("pick.hammer")][-2:] == ["production", "production"]

@@ -70,10 +70,15 @@ class Worker:
             if not self.store.heartbeat(job_id, self.name, self.lease_s):
                 return
 
-    def run_forever(self, stop: threading.Event | None = None) -> None:
+    def run_forever(self, stop: threading.Event | None = None, parent_pid: int | None = None) -> None:
+        """Poll until ``stop`` is set, or (``parent_pid``) until the parent process is gone: an
+        embedded worker must not outlive the service that started it."""
         stop = stop or threading.Event()
         log.info("worker %s polling for jobs", self.name)
         while not stop.is_set():
+            if parent_pid is not None and os.getppid() != parent_pid:
+                log.info("worker %s: parent %d is gone, stopping", self.name, parent_pid)
+                return
             if self.run_once() is None:
                 stop.wait(self.poll_s)
 

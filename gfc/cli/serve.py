@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -61,7 +62,7 @@ def register_serve_command(app: typer.Typer) -> None:
         if worker:
             child = subprocess.Popen(
                 [sys.executable, "-m", "gfc.cli", "worker", "--database", settings.job_store_url(),
-                 "--data-dir", str(settings.data_dir), "--processes", str(settings.verify_processes)]
+                 "--data-dir", str(settings.data_dir), "--processes", str(settings.verify_processes), "--parent-pid", str(os.getpid())]
             )  # fmt: skip
         typer.echo(
             f"gfc planning service on http://{settings.host}:{settings.port} (skills: {skill_store.location})"
@@ -85,6 +86,9 @@ def register_serve_command(app: typer.Typer) -> None:
         lease: Annotated[
             float, typer.Option(min=1.0, help="seconds a claimed job stays ours without a heartbeat")
         ] = 30.0,
+        parent_pid: Annotated[
+            int | None, typer.Option(help="stop when this process is gone (gfc serve's embedded worker)")
+        ] = None,
     ) -> None:
         """Verify candidates in the simulator: claim jobs from the job store, execute, report.
 
@@ -107,4 +111,4 @@ def register_serve_command(app: typer.Typer) -> None:
         runner = verification_worker(store, settings.data_dir, processes=processes, lease_s=lease)
         typer.echo(f"gfc worker {runner.name} on {settings.job_store_url()}")
         with contextlib.suppress(KeyboardInterrupt):
-            runner.run_forever()
+            runner.run_forever(parent_pid=parent_pid)

@@ -48,6 +48,28 @@ def gfc_serve(store: Path, data_dir: Path, **env_extra: str) -> Iterator[str]:
     finally:
         proc.terminate()
         proc.wait(timeout=20)
+        # Its embedded worker must not outlive it.
+        deadline = time.monotonic() + 10
+        while children_of(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not children_of(proc.pid), "gfc serve left its worker behind"
+
+
+def children_of(pid: int) -> list[int]:
+    """Worker processes started with ``--parent-pid PID`` (read from /proc)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            args = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"--parent-pid" in args and args[
+            args.index(b"--parent-pid") + 1 : args.index(b"--parent-pid") + 2
+        ] == [str(pid).encode()]:
+            found.append(int(entry.name))
+    return found
 
 
 @pytest.mark.slow

@@ -18,7 +18,8 @@ import torch
 
 from gfc.diffusion.gaussian import GaussianBank, GaussianFactor
 from gfc.plan.graph import CompiledPlan, SpatialFactor
-from gfc.planner.composed import Compensation, ComposedScore, VariableLayout
+from gfc.planner.composed import Compensation, ComposedScore
+from gfc.planner.layout import VariableLayout
 from gfc.planner.sampling import SamplingSettings, sample_graph
 from tests.graphs import InformationForm, factor, layout_of, plan_of, random_gaussian, vector_node
 

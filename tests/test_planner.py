@@ -171,3 +171,27 @@ def test_aligned_constraint_is_met_with_guidance_on_real_poses(
             )
     residual = composed.spatial_residuals(z)[0].abs().amax(dim=1)
     assert int((residual <= 1.0).sum()) <= 4
+
+
+def test_batched_requests_get_the_answers_they_would_get_alone() -> None:
+    """Micro-batching: two different plans sampled together (one network call per step for both)
+    give each the candidates it gets alone, up to floating-point rounding."""
+    from gfc.planner.library import InMemoryLibrary
+    from gfc.planner.planner import plan_many
+
+    place = compile_plan(load_example("hammer_place"))
+    nail = compile_plan(load_example("hammer_nail"))
+    library = InMemoryLibrary({**random_library(place, seed=1).models, **random_library(nail, seed=2).models})
+    base = parse_plan(load_example("hammer_place")).options
+    options_a = base.model_copy(update={"candidates": 5, "top_k": 3, "steps": 6, "seed": 11})
+    options_b = base.model_copy(update={"candidates": 8, "top_k": 2, "steps": 6, "seed": 12})
+    together = plan_many([(place, options_a), (nail, options_b)], library)
+    alone = [plan_candidates(place, library, options_a), plan_candidates(nail, library, options_b)]
+    for batched, single in zip(together, alone, strict=True):
+        assert [c["rank"] for c in batched.candidates] == [c["rank"] for c in single.candidates]
+        for cb, cs in zip(batched.candidates, single.candidates, strict=True):
+            for sb, ss in zip(cb["steps"], cs["steps"], strict=True):
+                assert np.allclose(sb["action"], ss["action"], atol=1e-4)
+        assert batched.timing["batched_with"] == 1.0
+    with pytest.raises(ValueError, match="cannot share a batch"):
+        plan_many([(place, options_a), (nail, options_b.model_copy(update={"steps": 7}))], library)

@@ -28,49 +28,22 @@ Batching
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 import torch
 
-from gfc.constraints import scaled_residual
 from gfc.diffusion.denoiser import StackedDenoiserProtocol
 from gfc.geometry import POSE9_DIM, pose9_frame_map
 from gfc.plan.graph import CompiledPlan
+from gfc.planner.layout import VariableLayout, known_values_of
+from gfc.planner.spatial import SpatialTerms
 
 Compensation = Literal["marginal", "mean", "none"]
 """How nodes shared by several temporal factors are counted once: "marginal" subtracts
 (d-1)/d of each factor's marginal score (exact, one extra single-token row per factor and shared
 node); "mean" averages the factors' joint-score components instead (DESIGN.md's reading of the
 paper: no extra rows, but not the gradient of a density); "none" is the ablation."""
-
-
-@dataclass(frozen=True)
-class VariableLayout:
-    """Where each free node, action and known node lives in the joint vectors."""
-
-    node_offset: dict[int, int]  # free node id -> offset in z
-    action_offset: dict[int, int]  # action id -> offset in z
-    known_offset: dict[int, int]  # known node id -> offset in the known vector
-    free_dim: int
-    known_dim: int
-
-    @staticmethod
-    def of(plan: CompiledPlan) -> VariableLayout:
-        node_offset, action_offset, known_offset = {}, {}, {}
-        free = known = 0
-        for n in plan.nodes:
-            if n.known:
-                known_offset[n.id] = known
-                known += n.dim
-            else:
-                node_offset[n.id] = free
-                free += n.dim
-        for a in plan.actions:
-            action_offset[a.id] = free
-            free += a.dim
-        return VariableLayout(node_offset, action_offset, known_offset, free, known)
 
 
 def _token_frame(dim: int, world_from_model: np.ndarray, is_pose: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -176,22 +149,8 @@ class ComposedScore:
         self.query_weight = torch.from_numpy(query_weight).to(dtype)[..., None] * self.weight[rows, qt].ne(
             0
         )  # (F, Q, D)
-        self.known_values = known_values if known_values is not None else self._known_from_plan()
-        self._spatial = [(f, [self._node_getter(n) for n in f.nodes]) for f in plan.spatial]
-
-    def _known_from_plan(self) -> torch.Tensor:
-        values = torch.zeros(self.layout.known_dim)
-        for node in self.plan.known:
-            assert node.value is not None
-            o = self.layout.known_offset[node.id]
-            values[o : o + node.dim] = torch.tensor(node.value)
-        return values
-
-    def _node_getter(self, node_id: int) -> tuple[bool, int, int]:
-        node = self.plan.nodes[node_id]
-        if node.known:
-            return True, self.layout.known_offset[node_id], node.dim
-        return False, self.layout.node_offset[node_id], node.dim
+        self.known_values = known_values if known_values is not None else known_values_of(plan, self.layout)
+        self.spatial = SpatialTerms(plan, self.layout, self.known_values)
 
     # ------------------------------------------------------------------ model scores
     def gather(self, full: torch.Tensor) -> torch.Tensor:
@@ -281,46 +240,14 @@ class ComposedScore:
         return self.scatter((denoised - x) / sigma**2, score_q)
 
     # ------------------------------------------------------------------ spatial factors
-    def node_values(self, z: torch.Tensor, node_id: int) -> torch.Tensor:
-        known, offset, dim = self._node_getter(node_id)
-        if known:
-            return self.known_values[offset : offset + dim].expand(z.shape[0], dim)
-        return z[:, offset : offset + dim]
-
     def spatial_residuals(self, z: torch.Tensor) -> list[torch.Tensor]:
-        """Tolerance-scaled residuals of every spatial factor. Each (B, R_f)."""
-        out = []
-        for factor, getters in self._spatial:
-            nodes = [
-                self.known_values[o : o + d].expand(z.shape[0], d) if known else z[:, o : o + d]
-                for known, o, d in getters
-            ]
-            out.append(scaled_residual(factor.type, nodes, factor.params))
-        return out
+        return self.spatial.residuals(z)
 
     def spatial_cost(self, z: torch.Tensor) -> torch.Tensor:
-        """Per-candidate energy ``sum weight/2 |r|^2`` of all spatial factors. (B,)"""
-        cost = z.new_zeros(z.shape[0])
-        for (factor, _), r in zip(self._spatial, self.spatial_residuals(z), strict=True):
-            cost = cost + 0.5 * factor.params.get("weight", 1.0) * (r**2).sum(-1)
-        return cost
+        return self.spatial.cost(z)
 
     def guidance(self, z: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
-        """Score of the noised spatial factors: ``-grad sum w/(1 + w sigma^2) |r|^2 / 2``."""
-        if not self._spatial:
-            return torch.zeros_like(z)
-        with torch.enable_grad():
-            zg = z.detach().requires_grad_(True)
-            energy = zg.new_zeros(())
-            for (factor, _), r in zip(self._spatial, self.spatial_residuals(zg), strict=True):
-                w = factor.params.get("weight", 1.0) / factor.params.get("tolerance", 0.01) ** 2
-                # residuals are already divided by the tolerance: E = w_user/2 |r_scaled|^2
-                noised = factor.params.get("weight", 1.0) / (
-                    1.0 + factor.params.get("gain", 1.0) * w * sigma**2
-                )
-                energy = energy + 0.5 * (noised * (r**2).sum(-1)).sum()
-            (grad,) = torch.autograd.grad(energy, zg)
-        return -grad
+        return self.spatial.guidance(z, sigma)
 
     # ------------------------------------------------------------------ the composed model
     def score(

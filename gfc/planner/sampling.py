@@ -9,6 +9,7 @@ import torch
 from gfc.diffusion.edm import SIGMA_MAX, SIGMA_MIN, karras_sigmas
 from gfc.diffusion.samplers import SAMPLERS
 from gfc.planner.composed import ComposedScore
+from gfc.planner.layout import VariableLayout
 
 
 @dataclass(frozen=True)
@@ -23,18 +24,34 @@ class SamplingSettings:
     corrector_snr: float = 0.1
 
 
+def initial_noise(
+    candidates: int, layout: VariableLayout, sigma_max: float, generator: torch.Generator
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The random start of a plan: z at sigma_max (B, N) and the known nodes' noise (B, K)."""
+    z = torch.randn(candidates, layout.free_dim, generator=generator) * sigma_max
+    known_noise = torch.randn(candidates, layout.known_dim, generator=generator)
+    return z, known_noise
+
+
 def sample_graph(
     composed: ComposedScore,
     candidates: int,
     settings: SamplingSettings,
     generator: torch.Generator,
+    z0: torch.Tensor | None = None,
+    known_noise: torch.Tensor | None = None,
 ) -> torch.Tensor:
-    """Draw ``candidates`` joint samples of all free variables. Returns z: (B, N)."""
+    """Draw ``candidates`` joint samples of all free variables. Returns z: (B, N).
+
+    ``z0`` and ``known_noise`` (from ``initial_noise``) fix the random start; by default they
+    are drawn from ``generator``.
+    """
     if settings.sampler not in SAMPLERS:
         raise ValueError(f"unknown sampler {settings.sampler!r}; choose from {sorted(SAMPLERS)}")
     sigmas = karras_sigmas(settings.steps, settings.sigma_min, settings.sigma_max)
-    z = torch.randn(candidates, composed.layout.free_dim, generator=generator) * sigmas[0]
-    known_noise = torch.randn(candidates, composed.layout.known_dim, generator=generator)
+    if z0 is None or known_noise is None:
+        z0, known_noise = initial_noise(candidates, composed.layout, float(sigmas[0]), generator)
+    z = z0
 
     def denoiser(x: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
         # D(x; sigma) = x + sigma^2 * score(x; sigma)  (Tweedie)

@@ -1,8 +1,6 @@
-"""Admission control: a bounded number of plans run, a bounded number wait, the rest get 503."""
+"""Admission control: a bounded number of plans in the service at once; beyond it, 503."""
 
 from __future__ import annotations
-
-import asyncio
 
 
 class Overloaded(Exception):
@@ -10,12 +8,14 @@ class Overloaded(Exception):
 
 
 class Admission:
-    """``async with admission:`` runs at most ``running`` bodies at once, queues at most ``waiting``
-    more, and refuses (``Overloaded``) beyond that instead of letting latency grow without bound."""
+    """``async with admission:`` lets at most ``capacity`` requests in at once (running in a
+    sampling batch or waiting for one) and refuses the rest (``Overloaded``) instead of letting
+    latency grow without bound. How many sample at once is the batcher's business."""
 
-    def __init__(self, running: int, waiting: int) -> None:
-        self._slots = asyncio.Semaphore(running)
-        self._capacity = running + waiting
+    def __init__(self, capacity: int) -> None:
+        if capacity < 1:
+            raise ValueError(f"capacity must be at least 1, got {capacity}")
+        self.capacity = capacity
         self._inside = 0
 
     @property
@@ -23,16 +23,10 @@ class Admission:
         return self._inside
 
     async def __aenter__(self) -> Admission:
-        if self._inside >= self._capacity:
-            raise Overloaded(f"{self._inside} plans running or queued (limit {self._capacity})")
+        if self._inside >= self.capacity:
+            raise Overloaded(f"{self._inside} plans running or queued (limit {self.capacity})")
         self._inside += 1
-        try:
-            await self._slots.acquire()
-        except BaseException:
-            self._inside -= 1
-            raise
         return self
 
     async def __aexit__(self, *exc: object) -> None:
-        self._slots.release()
         self._inside -= 1

@@ -15,6 +15,7 @@ from gfc.planner.library import SkillLibrary
 from service.admin import SkillAdmin
 from service.api.routes import admin as admin_routes
 from service.api.routes import health, metrics, plan, skills, verify
+from service.batcher import PlanBatcher
 from service.catalog import SkillCatalog
 from service.jobs import JobStore, open_job_store
 from service.limits import Admission
@@ -45,12 +46,21 @@ def create_app(
             "parameters for every step, ranked, from composed per-skill diffusion models."
         ),
     )
+    metrics_ = Metrics.create()
     app.state.gfc = ServiceState(
         settings=settings,
         library=library,
         catalog=catalog,
-        admission=Admission(settings.max_concurrent_plans, settings.max_queued_plans),
-        metrics=Metrics.create(),
+        admission=Admission(settings.max_concurrent_plans * settings.max_batch + settings.max_queued_plans),
+        metrics=metrics_,
+        batcher=PlanBatcher(
+            library,
+            window_s=settings.batch_window_ms / 1000,
+            max_batch=settings.max_batch,
+            workers=settings.max_concurrent_plans,
+            torch_threads=settings.torch_threads,
+            on_batch=metrics_.batch_size.observe,
+        ),
         jobs=jobs or open_job_store(settings.job_store_url()),
         admin=admin,
     )

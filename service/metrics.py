@@ -14,6 +14,7 @@ class Metrics:
     plan_seconds: Histogram
     plans_in_flight: Gauge
     rejected: Counter
+    batch_size: Histogram
 
     @staticmethod
     def create() -> Metrics:
@@ -34,4 +35,10 @@ class Metrics:
             ),
             plans_in_flight=Gauge("gfc_plans_in_flight", "plans running or queued", registry=registry),
             rejected=Counter("gfc_plans_rejected", "plans refused with 503 (overload)", registry=registry),
+            batch_size=Histogram(
+                "gfc_plan_batch_size",
+                "plans sampled together in one run (micro-batching)",
+                buckets=(1, 2, 3, 4, 6, 8, 16, 32, 64),
+                registry=registry,
+            ),
         )

@@ -25,10 +25,14 @@ class Settings(BaseSettings):
         return self.database_url or f"sqlite:///{self.data_dir / 'jobs.db'}"
 
     max_body_bytes: int = Field(1_000_000, ge=1_000, description="larger requests get 413")
-    max_concurrent_plans: int = Field(2, ge=1, description="plans sampled at the same time")
-    max_queued_plans: int = Field(8, ge=0, description="plans waiting beyond that; more get 503")
+    max_concurrent_plans: int = Field(2, ge=1, description="sampling runs at the same time (each a batch)")
+    max_queued_plans: int = Field(
+        8, ge=0, description="plans waiting beyond the running batches; more get 503"
+    )
     retry_after_s: int = Field(1, ge=1, description="Retry-After sent with 503")
     torch_threads: int = Field(1, ge=1, description="CPU threads per planning call")
+    batch_window_ms: float = Field(5.0, ge=0.0, le=1000.0, description="micro-batching window; 0 = off")
+    max_batch: int = Field(8, ge=1, le=64, description="plans sampled together at most")
     log_json: bool = True
     management_token: str | None = Field(
         None, min_length=16, description="turns on /admin endpoints (load, unload, alias skill versions)"

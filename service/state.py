@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from gfc.planner.library import SkillLibrary
 from service.admin import SkillAdmin
+from service.batcher import PlanBatcher
 from service.catalog import SkillCatalog
 from service.jobs import JobStore
 from service.limits import Admission
@@ -21,4 +22,5 @@ class ServiceState:
     admission: Admission
     metrics: Metrics
     jobs: JobStore
+    batcher: PlanBatcher
     admin: SkillAdmin | None = None  # store-backed services only

@@ -7,6 +7,7 @@ import time
 from typing import Any
 
 import httpx
+import pytest
 
 from gfc.examples import load_example
 from gfc.planner.library import InMemoryLibrary
@@ -107,7 +108,7 @@ def test_empty_library_is_not_ready() -> None:
 
 
 def test_overload_answers_503_with_retry_after(library: InMemoryLibrary) -> None:
-    settings = Settings(max_concurrent_plans=1, max_queued_plans=0, retry_after_s=2)
+    settings = Settings(max_concurrent_plans=1, max_queued_plans=0, max_batch=1, retry_after_s=2)
     slow = small(load_example("hammer_nail"), steps=200, candidates=16, top_k=1)
     results: list[int] = []
     with running_server(settings, library) as url:
@@ -128,3 +129,26 @@ def test_management_endpoints_are_off_without_a_token(client: httpx.Client) -> N
     response = client.post("/admin/skills/pick.hammer/unload")
     assert response.status_code == 404
     assert "GFC_MANAGEMENT_TOKEN" in response.json()["error"]
+
+
+def test_concurrent_plans_share_a_batch_and_keep_their_answers(library: InMemoryLibrary) -> None:
+    settings = Settings(batch_window_ms=300, max_batch=8)
+    plans = [small(load_example("hammer_place"), seed=s) for s in range(4)]
+    with running_server(settings, library) as url:
+        alone = httpx.post(f"{url}/plan", json=plans[0], timeout=60).json()
+        results: dict[int, dict[str, Any]] = {}
+
+        def send(i: int) -> None:
+            results[i] = httpx.post(f"{url}/plan", json=plans[i], timeout=60).json()
+
+        threads = [threading.Thread(target=send, args=(i,)) for i in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        metrics = httpx.get(f"{url}/metrics", timeout=30).text
+    assert max(r["timing"]["batched_with"] for r in results.values()) >= 1  # some shared a run
+    assert "gfc_plan_batch_size_count" in metrics
+    for a, b in zip(alone["candidates"], results[0]["candidates"], strict=True):
+        for sa, sb in zip(a["steps"], b["steps"], strict=True):
+            assert sa["action"] == pytest.approx(sb["action"], abs=1e-4)

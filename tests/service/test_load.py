@@ -12,7 +12,9 @@ from service.settings import Settings
 
 @pytest.mark.slow
 def test_overloaded_service_answers_only_200_or_503_with_retry_after(tmp_path: Path) -> None:
-    settings = Settings(data_dir=tmp_path, max_concurrent_plans=1, max_queued_plans=0, retry_after_s=1)
+    settings = Settings(
+        data_dir=tmp_path, max_concurrent_plans=1, max_queued_plans=0, max_batch=1, retry_after_s=1
+    )
     result = run_load(clients=6, requests=18, duration_s=60, candidates=4, steps=20, settings=settings)
     assert result["requests_sent"] == 18
     assert set(result["statuses"]) <= {"200", "503"}

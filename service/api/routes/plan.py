@@ -6,17 +6,13 @@ import asyncio
 import time
 import uuid
 
-import torch
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from gfc.plan import CompiledPlan, PlanError, PlanRequest, compile_plan
-from gfc.plan.schema import Options
-from gfc.planner.planner import PlanResult, plan_candidates
+from gfc.plan import PlanError, PlanRequest, compile_plan
 from service.deps import RequestIdDep, StateDep
 from service.limits import Overloaded
 from service.schemas import ErrorResponse, PlanResponse
-from service.state import ServiceState
 from skill_store import IntegrityError
 
 router = APIRouter(tags=["planning"])
@@ -52,7 +48,7 @@ async def plan(
         async with state.admission:
             state.metrics.plans_in_flight.set(state.admission.in_flight)
             start = time.perf_counter()
-            result = await asyncio.to_thread(_run, compiled, state, request.options)
+            result = await state.batcher.plan(compiled, request.options)
             state.metrics.plan_seconds.observe(time.perf_counter() - start)
     except Overloaded as exc:
         state.metrics.rejected.inc()
@@ -85,8 +81,3 @@ async def plan(
             "timing": result.timing,
         }
     )
-
-
-def _run(compiled: CompiledPlan, state: ServiceState, options: Options) -> PlanResult:
-    torch.set_num_threads(state.settings.torch_threads)
-    return plan_candidates(compiled, state.library, options)

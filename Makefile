@@ -13,10 +13,15 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
-## run: the main job
+## run: the main job: the planning service with the packaged skill library, SQLite job store
+## under ./var and an embedded verification worker (http://127.0.0.1:8000/docs)
 run: $(STAMP)
-	$(BIN)/gfc validate gfc/examples/hammer_place.json
+	$(BIN)/gfc serve
+
+## bench: the benchmarks whose tables live under docs/bench/
+bench: $(STAMP)
 	$(BIN)/gfc bench latency --json docs/bench/latency.json
+	$(BIN)/gfc bench load --json docs/bench/load.json
 
 ## test: lint, type-check and the whole test suite (slow tests included)
 test: $(STAMP)

@@ -1,8 +1,9 @@
 """One interface for fanning simulation work out: ``pool.map(fn, items)``.
 
-Local processes by default (on this 2-core machine a process pool beat Ray: DESIGN.md).
-Functions and items must be picklable by the standard library's ``multiprocessing`` (module
-level functions, plain data); results come back in order.
+Local processes by default (on this 2-core machine a process pool beat Ray: DESIGN.md); a Ray
+cluster when an address is configured (``pip install 'gfc[ray]'``). Functions and items must be
+module-level functions and plain data (they cross process boundaries through the standard
+library's serialisation, as multiprocessing and Ray require); results come back in order.
 """
 
 from __future__ import annotations
@@ -25,6 +26,39 @@ class InlinePool:
 
     def map(self, fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         return [fn(item) for item in items]
+
+
+def make_pool(ray_address: str | None = None, processes: int = 2) -> Pool:
+    """Ray when an address is given (``auto``, ``ray://host:10001``, ``local`` for an
+    in-process cluster), else local processes."""
+    if ray_address:
+        return RayPool(None if ray_address == "local" else ray_address)
+    return LocalPool(processes)
+
+
+class RayPool:
+    """Tasks on a Ray cluster: one task per item, results gathered in order."""
+
+    def __init__(self, address: str | None = None, num_cpus: int | None = None) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise RuntimeError(
+                "Ray is not installed: pip install 'gfc[ray]' (or unset GFC_RAY_ADDRESS)"
+            ) from None
+        self._ray = ray
+        if not ray.is_initialized():
+            ray.init(
+                address=address,
+                num_cpus=num_cpus if address is None else None,
+                include_dashboard=False,
+                log_to_driver=False,
+                configure_logging=False,
+            )
+
+    def map(self, fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+        task = self._ray.remote(fn)
+        return list(self._ray.get([task.remote(item) for item in items]))
 
 
 class LocalPool:

@@ -19,6 +19,9 @@ class Settings(BaseSettings):
         None, description="job store: sqlite:///PATH or postgresql://...; default: DATA_DIR/jobs.db"
     )
     verify_processes: int = Field(1, ge=1, description="simulator processes per verification job")
+    ray_address: str | None = Field(
+        None, description="verify on a Ray cluster (auto, ray://host:10001, local) instead of local processes"
+    )
     max_verify_candidates: int = Field(20, ge=1, description="candidates one verification job may carry")
 
     def job_store_url(self) -> str:

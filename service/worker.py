@@ -11,7 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from gfc.pool import LocalPool, Pool
+from gfc.pool import Pool, make_pool
 from service.jobs import JobRecord, JobStore
 from service.verification import VERIFY_KIND, verify_payload
 
@@ -84,10 +84,15 @@ class Worker:
 
 
 def verification_worker(
-    store: JobStore, data_dir: Path, processes: int = 1, lease_s: float = 30.0, pool: Pool | None = None
+    store: JobStore,
+    data_dir: Path,
+    processes: int = 1,
+    lease_s: float = 30.0,
+    pool: Pool | None = None,
+    ray_address: str | None = None,
 ) -> Worker:
     frames_root = data_dir / "renders"
-    chosen = pool or LocalPool(processes)
+    chosen = pool or make_pool(ray_address, processes)
 
     def verify(job: JobRecord) -> dict[str, Any]:
         return verify_payload(job.payload, chosen, frames_root, job.id)

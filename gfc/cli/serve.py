@@ -108,7 +108,9 @@ def register_serve_command(app: typer.Typer) -> None:
         }
         settings = Settings(**overrides)  # type: ignore[arg-type]
         store = open_job_store(settings.job_store_url())
-        runner = verification_worker(store, settings.data_dir, processes=processes, lease_s=lease)
+        runner = verification_worker(
+            store, settings.data_dir, processes=processes, lease_s=lease, ray_address=settings.ray_address
+        )
         typer.echo(f"gfc worker {runner.name} on {settings.job_store_url()}")
         with contextlib.suppress(KeyboardInterrupt):
             runner.run_forever(parent_pid=parent_pid)

@@ -170,3 +170,19 @@ def test_plan_then_verify_by_plan_id_then_poll(tmp_path: Path) -> None:
             assert all(s["failure_type"] in (1, 2, 3) and s["reason"] for s in failed)
         missing = httpx.post(f"{url}/verify", json={"plan_id": "nope"}, timeout=30)
         assert missing.status_code == 404
+
+
+@pytest.mark.slow
+def test_verification_fans_out_over_a_ray_cluster(tmp_path: Path) -> None:
+    """The same job through the Ray pool (a local cluster; GFC_RAY_ADDRESS names a real one)."""
+    store = open_job_store(f"sqlite:///{tmp_path / 'jobs.db'}")
+    request = reference_request()
+    request["candidates"].append({**request["candidates"][0], "rank": 1})
+    job = store.submit("verify", {**request, "seed": 0})
+    worker = verification_worker(store, tmp_path, ray_address="local")
+    worker.run_once()
+    final = store.get(job.id)
+    assert final is not None and final.status is JobStatus.SUCCEEDED, final
+    assert final.result is not None
+    assert [c["rank"] for c in final.result["candidates"]] == [0, 1]
+    assert all(c["success"] for c in final.result["candidates"])

@@ -12,6 +12,7 @@ class StoreCatalog:
     def __init__(self, store: SkillStore, library: StoreLibrary) -> None:
         self.store = store
         self.library = library
+        self._checked: dict[ResolvedRef, str | None] = {}  # versions are immutable: probe once
 
     def describe(self, name: str) -> SkillSummary:
         state = self.store.state(name)  # SkillNotFoundError is a KeyError
@@ -19,11 +20,17 @@ class StoreCatalog:
             raise KeyError(name)
         versions = []
         for version in state.versions:
-            try:
-                probe(self.library.model(ResolvedRef(name, version)))
-                versions.append(SkillVersion(name=name, version=str(version), ready=True))
-            except Exception as exc:  # a broken version is reported, not raised
-                versions.append(SkillVersion(name=name, version=str(version), ready=False, detail=str(exc)))
+            ref = ResolvedRef(name, version)
+            if ref not in self._checked:
+                try:
+                    probe(self.library.model(ref))
+                    self._checked[ref] = None
+                except Exception as exc:  # a broken version is reported, not raised
+                    self._checked[ref] = str(exc)
+            problem = self._checked[ref]
+            versions.append(
+                SkillVersion(name=name, version=str(version), ready=problem is None, detail=problem or "")
+            )
         return SkillSummary(
             name=name, versions=versions, aliases={a: str(v) for a, v in state.aliases.items()}
         )

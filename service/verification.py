@@ -20,6 +20,7 @@ class CandidateRun:
     candidate: dict[str, Any]
     seed: int
     frames_dir: str | None
+    frames_url: str | None = None  # where the service serves frames_dir (``/jobs/{id}/frames``)
 
 
 def run_candidate(run: CandidateRun) -> dict[str, Any]:
@@ -47,7 +48,7 @@ def run_candidate(run: CandidateRun) -> dict[str, Any]:
         path = Path(run.frames_dir) / f"rank{candidate.rank}.png"
         path.parent.mkdir(parents=True, exist_ok=True)
         save_strip(images, captions, path)
-        frames.append(path.name)
+        frames.append(f"{run.frames_url}/{path.name}" if run.frames_url else path.name)
     return {
         "rank": candidate.rank,
         "success": outcome.success,
@@ -75,7 +76,9 @@ def verify_payload(
     """A verify job's result: every candidate executed (in parallel over ``pool``)."""
     frames_dir = None if frames_root is None else str(frames_root / job_id)
     runs = [
-        CandidateRun(payload["plan"], candidate, int(payload.get("seed", 0)), frames_dir)
+        CandidateRun(
+            payload["plan"], candidate, int(payload.get("seed", 0)), frames_dir, f"/jobs/{job_id}/frames"
+        )
         for candidate in payload["candidates"]
     ]
     results = pool.map(run_candidate, runs)

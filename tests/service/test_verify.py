@@ -69,7 +69,8 @@ def test_verify_job_runs_in_the_simulator(tmp_path: Path) -> None:
         result = done["result"]["candidates"][0]
         assert result["success"] and result["goal_satisfied"]
         assert [s["skill"] for s in result["steps"]][-1] == "place"
-        frame = httpx.get(f"{url}/jobs/{job_ids[0]}/frames/{result['frames'][0]}", timeout=30)
+        assert result["frames"] == [f"/jobs/{job_ids[0]}/frames/rank0.png"]  # a link into the service
+        frame = httpx.get(f"{url}{result['frames'][0]}", timeout=30)
         assert frame.status_code == 200 and frame.content[:8] == b"\x89PNG\r\n\x1a\n"
 
         failed = httpx.get(f"{url}/jobs/{job_ids[1]}", timeout=30).json()

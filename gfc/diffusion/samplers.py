@@ -62,6 +62,36 @@ def langevin_corrector(
     return x
 
 
+def _sample(
+    denoiser: Denoiser,
+    x: torch.Tensor,
+    sigmas: torch.Tensor,
+    heun: bool,
+    churn: float,
+    s_tmin: float,
+    s_tmax: float,
+    generator: torch.Generator | None,
+    callback: Callback | None,
+    corrector_steps: int,
+    corrector_snr: float,
+) -> torch.Tensor:
+    n_steps = len(sigmas) - 1
+    for i in range(n_steps):
+        gamma = _churn_gamma(float(sigmas[i]), n_steps, churn, s_tmin, s_tmax)
+        x, sigma_hat = _raise_noise(x, sigmas[i], gamma, generator)
+        x0_hat = denoiser(x, sigma_hat)
+        if callback is not None:
+            callback(i, sigma_hat, x, x0_hat)
+        d = (x - x0_hat) / sigma_hat  # dx/dsigma
+        dt = sigmas[i + 1] - sigma_hat
+        x_next = x + d * dt
+        if heun and sigmas[i + 1] > 0:  # trapezoidal correction; the last step into 0 stays Euler
+            d_next = (x_next - denoiser(x_next, sigmas[i + 1])) / sigmas[i + 1]
+            x_next = x + (d + d_next) / 2 * dt
+        x = langevin_corrector(denoiser, x_next, sigmas[i + 1], corrector_steps, corrector_snr, generator)
+    return x
+
+
 def sample_euler(
     denoiser: Denoiser,
     x: torch.Tensor,
@@ -76,17 +106,9 @@ def sample_euler(
     corrector_snr: float = 0.1,
 ) -> torch.Tensor:
     """Euler steps along ``sigmas`` (decreasing, ending in 0). ``x`` starts at ``sigmas[0]``."""
-    n_steps = len(sigmas) - 1
-    for i in range(n_steps):
-        gamma = _churn_gamma(float(sigmas[i]), n_steps, churn, s_tmin, s_tmax)
-        x, sigma_hat = _raise_noise(x, sigmas[i], gamma, generator)
-        x0_hat = denoiser(x, sigma_hat)
-        if callback is not None:
-            callback(i, sigma_hat, x, x0_hat)
-        d = (x - x0_hat) / sigma_hat  # dx/dsigma
-        x = x + d * (sigmas[i + 1] - sigma_hat)
-        x = langevin_corrector(denoiser, x, sigmas[i + 1], corrector_steps, corrector_snr, generator)
-    return x
+    return _sample(
+        denoiser, x, sigmas, False, churn, s_tmin, s_tmax, generator, callback, corrector_steps, corrector_snr
+    )
 
 
 def sample_heun(
@@ -103,21 +125,9 @@ def sample_heun(
     corrector_snr: float = 0.1,
 ) -> torch.Tensor:
     """Heun (2nd order) steps; the last step into sigma = 0 is an Euler step, as in EDM."""
-    n_steps = len(sigmas) - 1
-    for i in range(n_steps):
-        gamma = _churn_gamma(float(sigmas[i]), n_steps, churn, s_tmin, s_tmax)
-        x, sigma_hat = _raise_noise(x, sigmas[i], gamma, generator)
-        x0_hat = denoiser(x, sigma_hat)
-        if callback is not None:
-            callback(i, sigma_hat, x, x0_hat)
-        d = (x - x0_hat) / sigma_hat
-        dt = sigmas[i + 1] - sigma_hat
-        x_next = x + d * dt
-        if sigmas[i + 1] > 0:
-            d_next = (x_next - denoiser(x_next, sigmas[i + 1])) / sigmas[i + 1]
-            x_next = x + (d + d_next) / 2 * dt
-        x = langevin_corrector(denoiser, x_next, sigmas[i + 1], corrector_steps, corrector_snr, generator)
-    return x
+    return _sample(
+        denoiser, x, sigmas, True, churn, s_tmin, s_tmax, generator, callback, corrector_steps, corrector_snr
+    )
 
 
 SAMPLERS: dict[str, Callable[..., torch.Tensor]] = {"euler": sample_euler, "heun": sample_heun}

@@ -7,6 +7,7 @@ import typer
 from gfc.cli.bench import bench_app
 from gfc.cli.plan_commands import register_plan_commands
 from gfc.cli.serve import register_serve_command
+from gfc.cli.train import register_train_command
 from gfc.sim.cli import register_sim_commands, sim_app
 from skill_store.cli import skills_app
 
@@ -27,6 +28,7 @@ app = typer.Typer(
 )
 register_plan_commands(app)
 register_serve_command(app)
+register_train_command(app)
 register_sim_commands(app)
 app.add_typer(sim_app, name="sim")
 app.add_typer(bench_app, name="bench")

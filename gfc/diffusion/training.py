@@ -91,6 +91,12 @@ def dsm_loss(
     return per_dim.sum() / mask.sum().clamp_min(1.0)
 
 
+def ema_decay_at(step: int, decay: float) -> float:
+    """EMA decay with warm-up: short runs still average over their own steps rather than keep the
+    initial weights (decay ``min(decay, (1 + step) / (10 + step))``)."""
+    return min(decay, (1 + step) / (10 + step))
+
+
 def _ema_update(ema: StackedDenoiser, model: StackedDenoiser, decay: float) -> None:
     with torch.no_grad():
         for e, p in zip(ema.parameters(), model.parameters(), strict=True):
@@ -125,7 +131,7 @@ def train_denoiser(
         loss.backward()  # type: ignore[no-untyped-call]
         torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
         optimiser.step()
-        _ema_update(ema, model, config.ema_decay)
+        _ema_update(ema, model, ema_decay_at(step, config.ema_decay))
         result.losses.append(float(loss.detach()))
         if on_step is not None:
             on_step(step, result.losses[-1])

@@ -1,0 +1,1 @@
+"""Skill datasets: collection in simulation (coming) and the on-disk format."""

@@ -22,7 +22,7 @@ def print_summary(console: Console, compiled: CompiledPlan) -> None:
         f"[bold green]valid[/]: {len(compiled.temporal)} steps in {len(compiled.stages)} stages, "
         f"{len(compiled.nodes)} node versions ({len(summary['known_nodes'])} known, "
         f"{len(summary['free_nodes'])} sampled), {len(compiled.actions)} actions, "
-        f"{len(compiled.spatial)} spatial factors"
+        f"{len(compiled.spatial)} spatial factor{'' if len(compiled.spatial) == 1 else 's'}"
     )
     table = Table(title="temporal factors (one per skeleton step)")
     for col in ("step", "model", "robot", "group", "pre nodes", "effect nodes"):

@@ -23,8 +23,7 @@ def register_serve_command(app: typer.Typer) -> None:
         ] = None,
         worker: Annotated[bool, typer.Option(help="also start a verification worker process")] = True,
     ) -> None:
-        """Run the planning service: POST /plan, POST /verify, GET /jobs/{id}, GET /skills,
-        health, metrics, and API docs at /docs.
+        """Run the planning service (plan, verify jobs, skills, health, metrics; docs at /docs).
 
         State (the job database, rendered frames) lives under GFC_DATA_DIR (default ./var);
         GFC_DATABASE_URL=postgresql://... puts jobs in PostgreSQL instead. Other settings:
@@ -90,7 +89,7 @@ def register_serve_command(app: typer.Typer) -> None:
             int | None, typer.Option(help="stop when this process is gone (gfc serve's embedded worker)")
         ] = None,
     ) -> None:
-        """Verify candidates in the simulator: claim jobs from the job store, execute, report.
+        """Run a verification worker: claim jobs, execute candidates in the simulator, report.
 
         Run as many as you like against one database (PostgreSQL for several machines). A
         worker that dies mid-job stops renewing its lease; after --lease seconds another worker

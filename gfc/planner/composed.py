@@ -109,22 +109,22 @@ class ComposedScore:
                         start = self.layout.node_offset[node.id]
                     is_pose = node.dim >= POSE9_DIM  # robot and object states start with a pose9
                     free = not node.known
-                    if free and compensation == "marginal" and degree[node.id] >= 2:
-                        d = degree[node.id]
+                    d = degree[node.id]
+                    shared = free and d >= 2
+                    if shared and compensation == "marginal":
                         queries[f].append((t, -(d - 1) / d))
+                    share = 1.0 / d if shared and compensation == "mean" else 1.0
                 else:
                     assert token.action is not None
                     start = self.layout.action_offset[token.action]
-                    is_pose, free = False, True
+                    is_pose, free, share = False, True, 1.0
                 src[f, t, : token.dim] = np.arange(start, start + token.dim)
                 a, b = _token_frame(token.dim, world_from_model, is_pose)
                 frame_a[f, t, : token.dim, : token.dim] = a
                 frame_b[f, t, : token.dim] = b
                 present[f, t] = True
-                if free:
-                    shared = token.node is not None and degree[token.node] >= 2
-                    mean_weight = 1.0 / degree[token.node] if shared and token.node is not None else 1.0
-                    weight[f, t, : token.dim] = mean_weight if compensation == "mean" else 1.0
+                if free:  # known nodes are clamped: their scores go nowhere
+                    weight[f, t, : token.dim] = share
 
         n_queries = max(1, max(len(q) for q in queries))
         query_token = np.zeros((n_factors, n_queries), dtype=np.int64)

@@ -98,9 +98,9 @@ OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
     ObjectKind(
         "cup",
         "a wider, shorter cup opening along +z, no handle",
-        half_extents=(0.036, 0.036, 0.04),
+        half_extents=(0.034, 0.034, 0.04),
         frames={"rim": (0.0, 0.0, 0.08, 0.0, 0.0, 0.0, 1.0)},
-        inner_half_extents=(0.03, 0.03, 0.04),
+        inner_half_extents=(0.029, 0.029, 0.04),
     ),
     ObjectKind(
         "pot",

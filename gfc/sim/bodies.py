@@ -38,12 +38,17 @@ BEAD_MASS = 0.004
 
 @dataclass(frozen=True)
 class Box:
-    """One box primitive: centre and half sizes in the object frame, optional yaw about z."""
+    """One primitive: centre and half sizes in the object frame, optional yaw about z.
+
+    ``cylinder=True`` makes an upright cylinder of radius ``half[0]`` and height ``2 * half[2]``
+    (round floors, so that nothing rests on corners outside a round wall).
+    """
 
     centre: tuple[float, float, float]
     half: tuple[float, float, float]
     rgba: Rgba
     yaw: float = 0.0
+    cylinder: bool = False
 
 
 @dataclass(frozen=True)
@@ -61,9 +66,7 @@ class Recipe:
 @dataclass(frozen=True)
 class BuiltBody:
     body: int
-    object_from_com: (
-        FloatArray  # 4x4: the body's PyBullet (centre of mass) frame in the object frame
-    )
+    object_from_com: FloatArray  # 4x4: the body's PyBullet (centre of mass) frame in the object frame
 
 
 def _ring(
@@ -145,7 +148,7 @@ def _vessel(kind: str, rgba: Rgba, mass: float, handle: bool) -> Recipe:
     assert k.inner_half_extents is not None
     inner = k.inner_half_extents[0]
     floor_half_z = 0.005
-    parts = [Box((0.0, 0.0, floor_half_z), (hx, hx, floor_half_z), rgba)]
+    parts = [Box((0.0, 0.0, floor_half_z), (hx, hx, floor_half_z), rgba, cylinder=True)]
     parts += _ring(inner, 2 * hz - 2 * floor_half_z, hx - inner, rgba, z0=2 * floor_half_z)
     if handle:
         # A loop handle at -x, as on a real mug: two stubs and a grip bar.
@@ -163,7 +166,7 @@ def _pot() -> Recipe:
     assert k.inner_half_extents is not None
     inner = k.inner_half_extents[0]
     floor_half_z = 0.006
-    parts = [Box((0.0, 0.0, floor_half_z), (hx, hx, floor_half_z), STEEL)]
+    parts = [Box((0.0, 0.0, floor_half_z), (hx, hx, floor_half_z), STEEL, cylinder=True)]
     parts += _ring(inner, 2 * hz - 2 * floor_half_z, hx - inner, STEEL, z0=2 * floor_half_z)
     # Handles: a bar along x just below the rim at y = +/-0.185 (the kind's named frames), joined
     # to the wall by a bracket. The grip is 2 cm wide so that the fingers close across it.
@@ -188,9 +191,7 @@ def _rack() -> Recipe:
     bar_half_z = 0.01
     parts = [Box((0.0, 0.0, 2 * hz - bar_half_z), (hx, hy, bar_half_z), GREY)]
     for side in (1.0, -1.0):
-        parts.append(
-            Box((0.0, side * (hy - 0.01), hz - bar_half_z), (0.01, 0.01, hz - bar_half_z), GREY)
-        )
+        parts.append(Box((0.0, side * (hy - 0.01), hz - bar_half_z), (0.01, 0.01, hz - bar_half_z), GREY))
     return Recipe(tuple(parts), 2.0, 0.8, com=(0.0, 0.0, hz))
 
 
@@ -227,17 +228,23 @@ def build_body(client: int, kind: str, world_from_object: FloatArray, fixed: boo
     # Shapes are given relative to the centre-of-mass frame, which PyBullet places at the base.
     positions = [list(np.asarray(p.centre) - com) for p in recipe.parts]
     orientations = [_yaw_quat(p.yaw) for p in recipe.parts]
-    n = len(recipe.parts)
+    shapes = [pb.GEOM_CYLINDER if p.cylinder else pb.GEOM_BOX for p in recipe.parts]
+    radii = [p.half[0] for p in recipe.parts]
+    lengths = [2 * p.half[2] for p in recipe.parts]
     collision = pb.createCollisionShapeArray(
-        shapeTypes=[pb.GEOM_BOX] * n,
+        shapeTypes=shapes,
         halfExtents=[list(p.half) for p in recipe.parts],
+        radii=radii,
+        lengths=lengths,
         collisionFramePositions=positions,
         collisionFrameOrientations=orientations,
         physicsClientId=client,
     )
     visual = pb.createVisualShapeArray(
-        shapeTypes=[pb.GEOM_BOX] * n,
+        shapeTypes=shapes,
         halfExtents=[list(p.half) for p in recipe.parts],
+        radii=radii,
+        lengths=lengths,
         visualFramePositions=positions,
         visualFrameOrientations=orientations,
         physicsClientId=client,
@@ -255,9 +262,7 @@ def build_body(client: int, kind: str, world_from_object: FloatArray, fixed: boo
     )
     # Colours per shape afterwards: createVisualShapeArray's rgbaColors crashes PyBullet 3.2.7.
     for index, part in enumerate(recipe.parts):
-        pb.changeVisualShape(
-            body, -1, shapeIndex=index, rgbaColor=list(part.rgba), physicsClientId=client
-        )
+        pb.changeVisualShape(body, -1, shapeIndex=index, rgbaColor=list(part.rgba), physicsClientId=client)
     pb.changeDynamics(
         body,
         -1,
@@ -271,9 +276,7 @@ def build_body(client: int, kind: str, world_from_object: FloatArray, fixed: boo
 
 def build_table(client: int) -> int:
     hx, hy, hz = TABLE_HALF_EXTENTS
-    collision = pb.createCollisionShape(
-        pb.GEOM_BOX, halfExtents=[hx, hy, hz], physicsClientId=client
-    )
+    collision = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx, hy, hz], physicsClientId=client)
     visual = pb.createVisualShape(
         pb.GEOM_BOX,
         halfExtents=[hx, hy, hz],

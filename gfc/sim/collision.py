@@ -61,9 +61,7 @@ def make_collision_fn(
     holders: dict[str, set[str]] = {}
     for c in carried:
         holders.setdefault(c.object, set()).add(c.robot)
-    moving_bodies = [mirror.robots[r].body for r in robots] + [
-        mirror.objects[o].body for o in holders
-    ]
+    moving_bodies = [mirror.robots[r].body for r in robots] + [mirror.objects[o].body for o in holders]
 
     def touching_allowed(moving: str, other: str, moving_link: int, other_link: int) -> bool:
         if (moving, other) in allowed or (other, moving) in allowed:
@@ -77,9 +75,7 @@ def make_collision_fn(
         for i, r in enumerate(robots):
             set_joints(client, mirror.robots[r], q[i * ARM_DOF : (i + 1) * ARM_DOF], finger_half[r])
         for c in carried:
-            place_in_mirror(
-                mirror, c.object, ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object
-            )
+            place_in_mirror(mirror, c.object, ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object)
         pb.performCollisionDetection(physicsClientId=client)
         for body in moving_bodies:
             for contact in pb.getContactPoints(bodyA=body, physicsClientId=client):
@@ -89,11 +85,7 @@ def make_collision_fn(
                     contact[4],
                     contact[8],
                 )
-                if (
-                    distance > -PENETRATION_TOLERANCE
-                    or other_body in bead_bodies
-                    or other_body == body
-                ):
+                if distance > -PENETRATION_TOLERANCE or other_body in bead_bodies or other_body == body:
                     continue
                 moving, other = name_of_body[body], name_of_body.get(other_body, "?")
                 if not touching_allowed(moving, other, link_a, link_b):

@@ -68,8 +68,7 @@ def execute_paths(
         step(world)
     for _ in range(SETTLE_LIMIT):
         done = all(
-            np.max(np.abs(arm_joints(world.client, robots[r]) - p[-1])) < CONVERGED
-            for r, p in paths.items()
+            np.max(np.abs(arm_joints(world.client, robots[r]) - p[-1])) < CONVERGED for r, p in paths.items()
         )
         if done:
             break
@@ -125,19 +124,12 @@ def fingers_touching(world: World, robot: str, object_body: int) -> bool:
     client = world.client
     body = world.physics.robots[robot].body
     return all(
-        len(
-            pb.getContactPoints(
-                bodyA=body, bodyB=object_body, linkIndexA=finger, physicsClientId=client
-            )
-        )
-        > 0
+        len(pb.getContactPoints(bodyA=body, bodyB=object_body, linkIndexA=finger, physicsClientId=client)) > 0
         for finger in FINGER_JOINTS
     )
 
 
-def close_grippers(
-    world: World, pairs: list[tuple[str, str]], max_steps: int = 240
-) -> list[Grasp | None]:
+def close_grippers(world: World, pairs: list[tuple[str, str]], max_steps: int = 240) -> list[Grasp | None]:
     """Close the fingers of several robots in the same physics steps (``(robot, object)`` pairs).
 
     Each grasp is contact-gated: a robot's fixed constraint is made only once both of its

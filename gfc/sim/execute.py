@@ -58,8 +58,7 @@ def _check_action(i: int, step: Step, action: FloatArray | None) -> FloatArray:
     if values.shape[0] != spec.action_dim or not np.all(np.isfinite(values)):
         raise SkillFailure(
             FailureType.METHOD,
-            f"step {i} ({step.skill}) needs {spec.action_dim} finite action values, "
-            f"got {values.shape[0]}",
+            f"step {i} ({step.skill}) needs {spec.action_dim} finite action values, got {values.shape[0]}",
         )
     return values
 
@@ -126,8 +125,7 @@ def execute_in_world(
             )
             on_stage(
                 world,
-                f"{stage[0]}: {label}"
-                + ("" if failure is None else f" FAILED ({failure.failure_type})"),
+                f"{stage[0]}: {label}" + ("" if failure is None else f" FAILED ({failure.failure_type})"),
             )
         if failure is not None:
             break

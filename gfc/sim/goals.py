@@ -31,10 +31,7 @@ def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
     if isinstance(spec, Inside):
         kind = object_kind(world.physics.objects[spec.target].kind)
         assert kind.inner_half_extents is not None
-        local = (
-            np.linalg.inv(entity_matrix(world, spec.target))
-            @ entity_matrix(world, spec.object)[:, 3]
-        )
+        local = np.linalg.inv(entity_matrix(world, spec.target)) @ entity_matrix(world, spec.object)[:, 3]
         half = np.asarray(kind.inner_half_extents)
         # The bottom centre must lie within the opening in xy and between the floor and the rim.
         inside_xy = bool(np.all(np.abs(local[:2]) <= half[:2] + spec.margin))

@@ -66,7 +66,7 @@ def solve_ik(
                 lowerLimits=_LOWER,
                 upperLimits=_UPPER,
                 jointRanges=_RANGES,
-                restPoses=[*seed_joints, 0.0, 0.0],
+                restPoses=[*start, 0.0, 0.0],  # the null space pulls towards the start
                 maxNumIterations=100,
                 residualThreshold=1e-6,
                 physicsClientId=client,

@@ -116,8 +116,6 @@ def plan_motion(
         return MotionResult([start, goal], time.perf_counter() - began, "direct")
     path = _rrt_connect(check, start, goal, int(rng.integers(2**31 - 2)), timeout)
     if path is None:
-        return MotionResult(
-            None, time.perf_counter() - began, f"RRTConnect found no path in {timeout:.0f} s"
-        )
+        return MotionResult(None, time.perf_counter() - began, f"RRTConnect found no path in {timeout:.0f} s")
     path = shortcut(check, path, rng)
     return MotionResult(path, time.perf_counter() - began, f"RRTConnect, {len(path)} waypoints")

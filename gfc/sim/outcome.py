@@ -39,9 +39,7 @@ class StepOutcome:
     success: bool
     failure_type: int | None
     reason: str
-    poses: dict[
-        str, list[float]
-    ]  # entity -> world pose [x, y, z, qx, qy, qz, qw]; robots: end effector
+    poses: dict[str, list[float]]  # entity -> world pose [x, y, z, qx, qy, qz, qw]; robots: end effector
     grippers: dict[str, float]  # robot -> finger opening in metres
     timings: StepTimings = field(default_factory=StepTimings)
 

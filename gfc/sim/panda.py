@@ -28,6 +28,8 @@ LOWER_LIMITS = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -
 UPPER_LIMITS = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 FINGER_FORCE = 40.0
+# Stiff joint servos: dense waypoints are tracked within a few millimetres at the end effector.
+POSITION_GAIN = 1.0
 
 
 @dataclass(frozen=True)
@@ -50,9 +52,7 @@ def load_panda(client: int, name: str, base: list[float], yaw: float) -> Panda:
     for finger in FINGER_JOINTS:
         # High finger friction as on real rubber pads; torsional friction keeps long objects
         # from swinging about the finger axis.
-        pb.changeDynamics(
-            body, finger, lateralFriction=1.5, spinningFriction=0.01, physicsClientId=client
-        )
+        pb.changeDynamics(body, finger, lateralFriction=1.5, spinningFriction=0.01, physicsClientId=client)
     robot = Panda(name, body, world_from_base)
     set_joints(client, robot, np.asarray(HOME_JOINTS), FINGER_MAX)
     hold_position(client, robot, np.asarray(HOME_JOINTS), FINGER_MAX)
@@ -80,9 +80,7 @@ def finger_opening(client: int, robot: Panda) -> float:
 
 def ee_matrix(client: int, robot: Panda) -> FloatArray:
     """World pose of the end effector (link 11) as a 4x4 transform."""
-    state = pb.getLinkState(
-        robot.body, EE_LINK, computeForwardKinematics=True, physicsClientId=client
-    )
+    state = pb.getLinkState(robot.body, EE_LINK, computeForwardKinematics=True, physicsClientId=client)
     return pose7_to_matrix([*state[4], *state[5]])
 
 
@@ -94,7 +92,7 @@ def hold_position(client: int, robot: Panda, arm: FloatArray, finger: float) -> 
         pb.POSITION_CONTROL,
         targetPositions=[float(v) for v in arm],
         forces=list(ARM_FORCES),
-        positionGains=[0.08] * ARM_DOF,
+        positionGains=[POSITION_GAIN] * ARM_DOF,
         physicsClientId=client,
     )
     command_fingers(client, robot, finger)

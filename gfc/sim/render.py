@@ -82,10 +82,7 @@ class KeyFrames:
         """One PNG per frame (``frame_00.png``...) and ``strip.png``, all frames in a grid."""
         out = Path(folder)
         out.mkdir(parents=True, exist_ok=True)
-        paths = [
-            save_png(img, out / f"frame_{i:02d}.png", cap)
-            for i, (cap, img) in enumerate(self.frames)
-        ]
+        paths = [save_png(img, out / f"frame_{i:02d}.png", cap) for i, (cap, img) in enumerate(self.frames)]
         if self.frames:
             paths.append(
                 save_strip(
@@ -98,9 +95,7 @@ class KeyFrames:
         return paths
 
 
-def save_strip(
-    images: Sequence[Rgb], captions: Sequence[str], path: str | Path, columns: int = 4
-) -> Path:
+def save_strip(images: Sequence[Rgb], captions: Sequence[str], path: str | Path, columns: int = 4) -> Path:
     """Tile frames (halved) into one captioned grid image."""
     thumbs = [Image.fromarray(img).reduce(2) for img in images]
     w, h = thumbs[0].size

@@ -92,12 +92,8 @@ def _populate(client: int, scene: Scene, with_mass: bool) -> Bodies:
     robots = {r.name: load_panda(client, r.name, list(r.base), r.yaw) for r in scene.robots}
     objects: dict[str, SimObject] = {}
     for spec in scene.objects:
-        built = build_body(
-            client, spec.kind, pose7_to_matrix(spec.pose), spec.fixed or not with_mass
-        )
-        objects[spec.name] = SimObject(
-            spec.name, spec.kind, built.body, built.object_from_com, spec.fixed
-        )
+        built = build_body(client, spec.kind, pose7_to_matrix(spec.pose), spec.fixed or not with_mass)
+        objects[spec.name] = SimObject(spec.name, spec.kind, built.body, built.object_from_com, spec.fixed)
     return Bodies(client, robots, objects, table)
 
 
@@ -109,7 +105,7 @@ def _fill(bodies: Bodies, container: str, count: int) -> None:
         raise ValueError(f"{container!r} ({obj.kind}) is not a container and cannot hold contents")
     world_from_object = object_matrix(bodies, container)
     spacing = 2.2 * BEAD_RADIUS
-    per_row = max(1, int(kind.inner_half_extents[0] * 1.2 / spacing))
+    per_row = max(1, int(2 * kind.inner_half_extents[0] * 0.85 / spacing))
     for i in range(count):
         layer, cell = divmod(i, per_row * per_row)
         row, col = divmod(cell, per_row)
@@ -118,7 +114,7 @@ def _fill(bodies: Bodies, container: str, count: int) -> None:
             [
                 (col - offset) * spacing,
                 (row - offset) * spacing,
-                0.02 + BEAD_RADIUS + layer * spacing,
+                0.012 + BEAD_RADIUS + layer * spacing,
                 1.0,
             ]
         )
@@ -170,9 +166,7 @@ def sync_mirror(world: World) -> None:
     """Copy robot joints and object poses from the physics client into the planning mirror."""
     for name, robot in world.physics.robots.items():
         half = finger_opening(world.client, robot) / 2
-        set_joints(
-            world.mirror.client, world.mirror.robots[name], arm_joints(world.client, robot), half
-        )
+        set_joints(world.mirror.client, world.mirror.robots[name], arm_joints(world.client, robot), half)
     for name in world.physics.objects:
         place_in_mirror(world.mirror, name, object_matrix(world.physics, name))
 

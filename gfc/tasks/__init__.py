@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from gfc.tasks import hammer_nail, hammer_place, pot_reorientation
+from gfc.tasks import hammer_nail, hammer_place, pot_reorientation, pour_cup
 from gfc.tasks.base import Sampler, TaskInstance
 
 TASKS: dict[str, Sampler] = {
     "hammer_place": hammer_place.sample,
     "hammer_nail": hammer_nail.sample,
     "pot_reorientation": pot_reorientation.sample,
+    "pour_cup": pour_cup.sample,
 }
 
 

@@ -42,7 +42,7 @@ SIDE = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]]).T
 
 def sample(seed: int) -> TaskInstance:
     rng = np.random.default_rng(seed)
-    nx, ny = 0.54 + rng.uniform(-0.02, 0.02), 0.05 + rng.uniform(-0.02, 0.02)
+    nx, ny = 0.35 + rng.uniform(-0.015, 0.015), -0.08 + rng.uniform(-0.015, 0.015)
     objects = [
         *prelude_objects(rng),
         *hammer_objects(rng),

@@ -23,9 +23,7 @@ from gfc.tasks.base import (
 )
 from gfc.tasks.boxes import FLOOR, prelude_actions, prelude_objects, prelude_skeleton
 
-HANDLE_Z = (
-    0.018  # m: grasp height on the handle (its centre is at 0.0125; fingertips clear the table)
-)
+HANDLE_Z = 0.018  # m: grasp height on the handle (its centre is at 0.0125; fingertips clear the table)
 LEFT_GRASP_X = 0.03  # near the head
 RIGHT_GRASP_X = -0.08  # near the handle end
 

@@ -64,9 +64,7 @@ def sample_with_angle(seed: int, angle_deg: float) -> TaskInstance:
     )
     handles = object_kind("pot").frames
     grasps = {
-        side: grasp9(
-            [HANDLE_GRASP_X, handles[f"handle_{side}"][1], handles[f"handle_{side}"][2]], DOWN
-        )
+        side: grasp9([HANDLE_GRASP_X, handles[f"handle_{side}"][1], handles[f"handle_{side}"][2]], DOWN)
         for side in ("left", "right")
     }
     lifted = frame([px, py, TABLE_Z + LIFT], rot_z(yaw))

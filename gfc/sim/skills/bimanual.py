@@ -55,9 +55,7 @@ def _together(
     count = max(waypoint_count(a, b) for a, b in zip(starts, targets, strict=True))
     paths = {}
     for r, a, b in zip(robots, starts, targets, strict=True):
-        path = cartesian_joint_path(
-            ctx.world, r, joints(ctx, r), interpolate_poses(a, b, count), ctx.rng
-        )
+        path = cartesian_joint_path(ctx.world, r, joints(ctx, r), interpolate_poses(a, b, count), ctx.rng)
         if path is None:
             raise SkillFailure(FailureType.METHOD, f"{r}: cannot follow a straight line to {what}")
         paths[r] = path
@@ -65,9 +63,7 @@ def _together(
     return None
 
 
-def _plan_together(
-    ctx: SkillContext, robots: Sequence[str], goals: Sequence[FloatArray], what: str
-) -> None:
+def _plan_together(ctx: SkillContext, robots: Sequence[str], goals: Sequence[FloatArray], what: str) -> None:
     check = collision_fn(ctx, robots)
     start = np.concatenate([joints(ctx, r) for r in robots])
     goal = np.concatenate(list(goals))
@@ -153,9 +149,7 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
         for r, line in zip(robots, lines, strict=True):
             path = cartesian_joint_path(world, r, joints(ctx, r), line, ctx.rng)
             if path is None:
-                raise SkillFailure(
-                    FailureType.METHOD, f"{r}: cannot carry {held[0]} along the straight line"
-                )
+                raise SkillFailure(FailureType.METHOD, f"{r}: cannot carry {held[0]} along the straight line")
             paths.append(path)
         for k in range(count):
             hit = check(np.concatenate([p[k] for p in paths]))
@@ -163,24 +157,16 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
                 raise SkillFailure(
                     FailureType.PATH, f"carrying {held[0]} hits: {hit.moving} with {hit.other}"
                 )
-        execute_paths(
-            world, dict(zip(robots, paths, strict=True)), {r: 0.0 for r in robots}, speed=0.4
-        )
+        execute_paths(world, dict(zip(robots, paths, strict=True)), {r: 0.0 for r in robots}, speed=0.4)
     else:
-        goals = [
-            _solo_goal(ctx, r, t, "the move target") for r, t in zip(robots, targets, strict=True)
-        ]
+        goals = [_solo_goal(ctx, r, t, "the move target") for r, t in zip(robots, targets, strict=True)]
         _plan_together(ctx, robots, goals, "the move targets")
     for r, t in zip(robots, targets, strict=True):
         dp, _ = pose_error(ee(ctx, r), t)
         if dp > 0.015:
-            raise SkillFailure(
-                FailureType.PHYSICS, f"{r} stopped {dp * 100:.1f} cm short (blocked)"
-            )
+            raise SkillFailure(FailureType.PHYSICS, f"{r} stopped {dp * 100:.1f} cm short (blocked)")
         if r in world.grasps and held_offset_error(ctx, r) > 0.02:
-            raise SkillFailure(
-                FailureType.PHYSICS, f"{world.grasps[r].object} slipped in {r}'s hand"
-            )
+            raise SkillFailure(FailureType.PHYSICS, f"{world.grasps[r].object} slipped in {r}'s hand")
     return f"{' and '.join(robots)} moved together"
 
 
@@ -192,6 +178,5 @@ def execute_group(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Fl
         return group_move(ctx, steps, actions)
     raise SkillFailure(
         FailureType.METHOD,
-        f"a group of {' + '.join(s.skill for s in steps)} cannot run at once "
-        "(groups are picks or moves)",
+        f"a group of {' + '.join(s.skill for s in steps)} cannot run at once (groups are picks or moves)",
     )

@@ -23,6 +23,17 @@ from gfc.sim.skills.motions import (
 from gfc.sim.world import object_matrix
 
 MIN_LIFT = 0.08  # m the object must rise during the lift for the pick to count
+SIDE_GRASP_COS = 0.5  # cos(60 deg): approach axes flatter than this count as side grasps
+SIDE_APPROACH = 0.06  # m above a side grasp where the descent starts
+
+
+def pre_grasp(world_from_grasp: FloatArray) -> FloatArray:
+    """Where the approach starts: back along the gripper's approach axis for grasps from above;
+    straight above for side grasps (approach axis within 60 degrees of horizontal), so that the
+    open fingers come down on both sides of the object instead of sweeping along the table."""
+    if world_from_grasp[2, 2] > -SIDE_GRASP_COS:
+        return translated(world_from_grasp, [0.0, 0.0, SIDE_APPROACH])
+    return backed_off(world_from_grasp, APPROACH)
 
 
 def pick(ctx: SkillContext, step: Step, action: FloatArray) -> str:
@@ -35,7 +46,8 @@ def pick(ctx: SkillContext, step: Step, action: FloatArray) -> str:
             raise SkillFailure(FailureType.METHOD, f"{obj} is held by {other}; use regrasp")
     world_from_grasp = object_matrix(world.physics, obj) @ pose9_to_matrix(action)
     check_grasp_on_object(world, obj, world_from_grasp)
-    reach(ctx, robot, backed_off(world_from_grasp, APPROACH), f"the pre-grasp pose of {obj}")
+    lifted = translated(world_from_grasp, [0.0, 0.0, LIFT])
+    reach(ctx, robot, pre_grasp(world_from_grasp), f"the pre-grasp of {obj}", [world_from_grasp, lifted])
     straight(ctx, robot, world_from_grasp, f"the grasp pose of {obj}")
     z_before = object_matrix(world.physics, obj)[2, 3]
     if close_gripper(world, robot, obj) is None:
@@ -62,19 +74,21 @@ def regrasp(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     giver_grasp_point = ee(ctx, giver)[:3, 3]
     if float(((world_from_grasp[:3, 3] - giver_grasp_point) ** 2).sum() ** 0.5) < 0.04:
         raise SkillFailure(FailureType.METHOD, f"the grasp is on {giver}'s fingers (within 4 cm)")
-    reach(ctx, receiver, backed_off(world_from_grasp, APPROACH), f"the handover pre-grasp of {obj}")
+    reach(
+        ctx,
+        receiver,
+        backed_off(world_from_grasp, APPROACH),
+        f"the handover pre-grasp of {obj}",
+        [world_from_grasp],
+    )
     straight(ctx, receiver, world_from_grasp, f"the handover grasp of {obj}")
     if close_gripper(world, receiver, obj) is None:
-        raise SkillFailure(
-            FailureType.PHYSICS, f"{receiver}'s fingers closed without holding {obj}"
-        )
+        raise SkillFailure(FailureType.PHYSICS, f"{receiver}'s fingers closed without holding {obj}")
     open_gripper(world, giver)
     try:
         straight(ctx, giver, backed_off(ee(ctx, giver), 0.08), f"{giver}'s retreat")
     except SkillFailure:
         ctx.notes.append(f"{giver} could not retreat in a straight line")
     if held_offset_error(ctx, receiver) > 0.02:
-        raise SkillFailure(
-            FailureType.PHYSICS, f"{obj} slipped in {receiver}'s hand during the handover"
-        )
+        raise SkillFailure(FailureType.PHYSICS, f"{obj} slipped in {receiver}'s hand during the handover")
     return f"{receiver} took {obj} from {giver}"

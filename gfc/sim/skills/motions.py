@@ -3,6 +3,7 @@ straight line, and the geometric checks that turn into failure type 1."""
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -22,12 +23,13 @@ from gfc.sim.ik import solve_ik
 from gfc.sim.motion import plan_motion
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, arm_joints, ee_matrix
-from gfc.sim.world import World, object_matrix, sync_mirror
+from gfc.sim.world import World, gripper_openings, object_matrix, sync_mirror
 
 APPROACH = 0.10  # m: pre-grasp offset back along the gripper's approach axis
 LIFT = 0.12  # m: how far a pick lifts the object
 IK_ATTEMPTS = 24
-IK_CANDIDATES = 4  # collision-free solutions to choose from
+IK_CANDIDATES = 6  # collision-free solutions to choose from
+IK_RANDOM_RESTARTS = 3  # random starts per attempt after the seeded ones (side grasps need many)
 
 
 @dataclass
@@ -59,7 +61,8 @@ def collision_fn(
     ctx: SkillContext, robots: Sequence[str], allowed: frozenset[tuple[str, str]] = frozenset()
 ) -> CollisionFn:
     sync_mirror(ctx.world)
-    fingers = {r: 0.0 if r in ctx.world.grasps else 0.08 for r in robots}
+    openings = gripper_openings(ctx.world)
+    fingers = {r: openings[r] if r in ctx.world.grasps else 0.08 for r in robots}
     return make_collision_fn(ctx.world, robots, carried_by(ctx, robots), fingers, allowed)
 
 
@@ -69,8 +72,39 @@ def limit_margin(q: FloatArray) -> float:
     return float(np.min(np.minimum(q - LOWER_LIMITS, UPPER_LIMITS - q) / span))
 
 
+def line_feasible(
+    ctx: SkillContext, robot: str, q: FloatArray, start: FloatArray, follow: Sequence[FloatArray]
+) -> bool:
+    """Whether straight end-effector lines from ``start`` through ``follow`` can be tracked from
+    joint configuration ``q`` on one IK branch (the approach and lift after a reach)."""
+    poses = [start, *follow]
+    joints_now = q
+    for a, b in itertools.pairwise(poses):
+        path = cartesian_joint_path(
+            ctx.world, robot, joints_now, interpolate_poses(a, b, waypoint_count(a, b)), ctx.rng
+        )
+        if path is None:
+            return False
+        joints_now = path[-1]
+    return True
+
+
+def aimed_home(ctx: SkillContext, robot: str, world_from_ee: FloatArray) -> FloatArray:
+    """The home configuration turned (joint 1) to face the target: a natural IK start that
+    keeps the elbow up and the wrist away from its limits."""
+    base_from_ee = np.linalg.inv(ctx.world.physics.robots[robot].world_from_base) @ world_from_ee
+    q = np.asarray(HOME_JOINTS, dtype=np.float64).copy()
+    q[0] = float(np.arctan2(base_from_ee[1, 3], base_from_ee[0, 3]))
+    return q
+
+
 def free_ik(
-    ctx: SkillContext, robot: str, world_from_ee: FloatArray, check: CollisionFn, what: str
+    ctx: SkillContext,
+    robot: str,
+    world_from_ee: FloatArray,
+    check: CollisionFn,
+    what: str,
+    follow: Sequence[FloatArray] = (),
 ) -> FloatArray:
     """A collision-free IK solution, or type 1 (none exists) / type 2 (all of them collide).
 
@@ -79,19 +113,22 @@ def free_ik(
     start at a limit.
     """
     current = joints(ctx, robot)
-    seeds = [current, np.asarray(HOME_JOINTS)]
+    seeds = [current, aimed_home(ctx, robot, world_from_ee), np.asarray(HOME_JOINTS)]
     found: list[FloatArray] = []
     collisions: list[str] = []
+    dead_ends = 0
     for attempt in range(IK_ATTEMPTS):
         seed = seeds[attempt] if attempt < len(seeds) else None
         if seed is not None:
             q = solve_ik(ctx.world, robot, world_from_ee, seed, ctx.rng, restarts=0)
         else:
-            q = solve_ik(ctx.world, robot, world_from_ee, current, ctx.rng, restarts=1)
+            q = solve_ik(ctx.world, robot, world_from_ee, current, ctx.rng, restarts=IK_RANDOM_RESTARTS)
         if q is None:
             continue
         hit = check(q)
-        if hit is None:
+        if hit is None and follow and not line_feasible(ctx, robot, q, world_from_ee, follow):
+            dead_ends += 1
+        elif hit is None:
             found.append(q)
             if len(found) == IK_CANDIDATES:
                 break
@@ -99,6 +136,11 @@ def free_ik(
             collisions.append(f"{hit.moving} with {hit.other}")
     if found:
         return max(found, key=limit_margin)
+    if dead_ends:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"{robot}: from no IK solution for {what} can the straight approach that follows be made",
+        )
     if collisions:
         raise SkillFailure(
             FailureType.PATH, f"{robot}: every IK solution for {what} collides ({collisions[0]})"
@@ -110,22 +152,28 @@ def free_ik(
     )
 
 
-def reach(ctx: SkillContext, robot: str, world_from_ee: FloatArray, what: str) -> None:
-    """Plan a collision-free joint path to the pose (with what the robot holds) and execute it."""
+def reach(
+    ctx: SkillContext,
+    robot: str,
+    world_from_ee: FloatArray,
+    what: str,
+    follow: Sequence[FloatArray] = (),
+) -> None:
+    """Plan a collision-free joint path to the pose (with what the robot holds) and execute it.
+
+    ``follow``: end-effector poses the robot will then reach in straight lines; the goal
+    configuration is chosen so that it can.
+    """
     check = collision_fn(ctx, [robot])
-    goal = free_ik(ctx, robot, world_from_ee, check, what)
+    goal = free_ik(ctx, robot, world_from_ee, check, what, follow)
     result = plan_motion(check, joints(ctx, robot), goal, ctx.rng)
     ctx.planning_s += result.planning_s
     if result.path is None:
-        raise SkillFailure(
-            FailureType.PATH, f"{robot}: no collision-free path to {what}: {result.reason}"
-        )
+        raise SkillFailure(FailureType.PATH, f"{robot}: no collision-free path to {what}: {result.reason}")
     execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)})
 
 
-def straight(
-    ctx: SkillContext, robot: str, world_from_ee: FloatArray, what: str, speed: float = 0.5
-) -> None:
+def straight(ctx: SkillContext, robot: str, world_from_ee: FloatArray, what: str, speed: float = 0.5) -> None:
     """Move the end effector in a straight line (approach, retreat, lift); contact is allowed."""
     start = ee(ctx, robot)
     poses = interpolate_poses(start, world_from_ee, waypoint_count(start, world_from_ee))
@@ -170,9 +218,7 @@ def require_holding(world: World, robot: str, obj: str | None) -> None:
 
 def require_free(world: World, robot: str) -> None:
     if robot in world.grasps:
-        raise SkillFailure(
-            FailureType.METHOD, f"{robot} already holds {world.grasps[robot].object}"
-        )
+        raise SkillFailure(FailureType.METHOD, f"{robot} already holds {world.grasps[robot].object}")
 
 
 def held_offset_error(ctx: SkillContext, robot: str) -> float:

@@ -27,7 +27,13 @@ def place(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     require_holding(world, robot, obj)
     world_from_goal = object_matrix(world.physics, target) @ pose9_to_matrix(action)
     world_from_ee = world_from_goal @ invert(world.grasps[robot].ee_from_object)
-    reach(ctx, robot, translated(world_from_ee, [0.0, 0.0, PLACE_APPROACH]), f"above the {target}")
+    reach(
+        ctx,
+        robot,
+        translated(world_from_ee, [0.0, 0.0, PLACE_APPROACH]),
+        f"above the {target}",
+        [world_from_ee],
+    )
     straight(ctx, robot, world_from_ee, f"the placement of {obj}")
     open_gripper(world, robot)
     straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, PLACE_APPROACH]), "the retreat")

@@ -27,6 +27,8 @@ POUR_ANGLE = math.radians(125.0)
 POUR_LIP_FRACTION = 0.7  # lip within this fraction of the target's inner radius from its centre
 POUR_MIN_CLEARANCE, POUR_MAX_CLEARANCE = 0.0, 0.06  # source bottom above the target rim, m
 POUR_SHARE = 0.8  # fraction of the contents that must land in the target
+POUR_LIP_LOW = 0.02  # m: how low over the target's rim the lip comes while tipping
+POUR_SPEED = 0.5  # rad/s of the fastest joint: slow, so that the contents trickle out
 
 
 def _frame(world: World, name: str, frame: str) -> FloatArray:
@@ -42,9 +44,7 @@ def strike(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     require_holding(world, robot, tool)
     tool_kind = object_kind(world.physics.objects[tool].kind)
     if "head" not in tool_kind.frames:
-        raise SkillFailure(
-            FailureType.METHOD, f"{tool} ({tool_kind.name}) has no head to strike with"
-        )
+        raise SkillFailure(FailureType.METHOD, f"{tool} ({tool_kind.name}) has no head to strike with")
     head = _frame(world, tool, "head")
     up = head[:3, 2]
     tilt = math.acos(min(1.0, abs(float(up[2]))))
@@ -63,16 +63,10 @@ def strike(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     offset = float(np.linalg.norm(face[:2] - top[:2]))
     gap = float(face[2] - top[2])
     if offset > STRIKE_XY_TOLERANCE:
-        raise SkillFailure(
-            FailureType.METHOD, f"the head is {offset * 100:.1f} cm beside the {target}'s top"
-        )
+        raise SkillFailure(FailureType.METHOD, f"the head is {offset * 100:.1f} cm beside the {target}'s top")
     if not -0.005 <= gap <= STRIKE_MAX_GAP:
-        raise SkillFailure(
-            FailureType.METHOD, f"the head is {gap * 100:.1f} cm above the {target}'s top"
-        )
-    straight(
-        ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, -(gap + 0.015)]), "the blow", speed=1.5
-    )
+        raise SkillFailure(FailureType.METHOD, f"the head is {gap * 100:.1f} cm above the {target}'s top")
+    straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, -(gap + 0.015)]), "the blow", speed=1.5)
     physics_step(world, 10)
     touching = pb.getContactPoints(
         bodyA=world.physics.objects[tool].body,
@@ -106,9 +100,7 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     kinds = [object_kind(world.physics.objects[n].kind) for n in (source, target)]
     for name, kind in zip((source, target), kinds, strict=True):
         if kind.inner_half_extents is None or "rim" not in kind.frames:
-            raise SkillFailure(
-                FailureType.METHOD, f"{name} ({kind.name}) is not a container with a rim"
-            )
+            raise SkillFailure(FailureType.METHOD, f"{name} ({kind.name}) is not a container with a rim")
         up = object_matrix(world.physics, name)[:3, 2]
         if math.acos(min(1.0, float(up[2]))) > POUR_UPRIGHT:
             raise SkillFailure(FailureType.METHOD, f"{name} is not upright before the pour")
@@ -140,30 +132,36 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
         )
     before = _beads_inside(world, source)
     # Rotate about the horizontal axis perpendicular to the pouring direction, through the lip.
+    # Tipping swings the source's body up and away, so the lip is lowered meanwhile by
+    # rim_height * (1 - cos(angle)) (which keeps the lowest corner of the source at its starting
+    # clearance) until it is POUR_LIP_LOW above the target's rim: the contents then leave the
+    # lip just above the opening instead of falling from the height of the source.
     axis = np.cross([0.0, 0.0, 1.0], direction)
+    rim_height = kinds[0].frames["rim"][2]
+    lowest_lip = target_rim[2] + POUR_LIP_LOW
     start = ee(ctx, robot)
     poses = []
-    for angle in np.linspace(0.0, POUR_ANGLE, 40):
+    for angle in np.linspace(0.0, POUR_ANGLE, 60):
         rot = _axis_angle(axis, float(angle))
+        tipped = min(float(angle), math.pi / 2)
+        drop = min(rim_height * (1.0 - math.cos(tipped)), max(0.0, lip[2] - lowest_lip))
         pose = start.copy()
         pose[:3, :3] = rot @ start[:3, :3]
-        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip)
+        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip) - np.array([0.0, 0.0, drop])
         poses.append(pose)
     path = cartesian_joint_path(world, robot, joints(ctx, robot), poses, ctx.rng)
     if path is None:
         raise SkillFailure(FailureType.METHOD, f"{robot} cannot tip {source} that far from here")
     fingers = {robot: gripper_target(world, robot)}
-    execute_paths(world, {robot: path}, fingers, speed=0.8)
+    execute_paths(world, {robot: path}, fingers, speed=POUR_SPEED)
     physics_step(world, 240)
-    execute_paths(world, {robot: path[::-1]}, fingers, speed=0.8)
+    execute_paths(world, {robot: path[::-1]}, fingers, speed=POUR_SPEED)
     physics_step(world, 120)
     landed = _beads_inside(world, target)
     if before == 0:
         return f"tipped {source} over {target} (it held no contents)"
     if landed < math.ceil(POUR_SHARE * before):
-        raise SkillFailure(
-            FailureType.PHYSICS, f"spilled: {landed} of {before} beads landed in {target}"
-        )
+        raise SkillFailure(FailureType.PHYSICS, f"spilled: {landed} of {before} beads landed in {target}")
     return f"poured {landed} of {before} beads into {target}"
 
 

@@ -32,9 +32,7 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
     require_holding(world, robot, tool)
     x, y, r, theta = (float(v) for v in action)
     if not 0.0 < r <= MAX_STROKE:
-        raise SkillFailure(
-            FailureType.METHOD, f"stroke length r = {r:.2f} m outside (0, {MAX_STROKE}]"
-        )
+        raise SkillFailure(FailureType.METHOD, f"stroke length r = {r:.2f} m outside (0, {MAX_STROKE}]")
     tool_kind = object_kind(world.physics.objects[tool].kind)
     if "tip" not in tool_kind.frames:
         raise SkillFailure(FailureType.METHOD, f"{tool} has no tip to push or pull with")
@@ -54,9 +52,7 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
     straight(ctx, robot, world_from_ee, "the working height")
     before = object_matrix(world.physics, target)[:3, 3]
     direction = sign * world_from_tool[:3, 0]
-    straight(
-        ctx, robot, translated(ee(ctx, robot), r * direction), "the end of the stroke", speed=0.4
-    )
+    straight(ctx, robot, translated(ee(ctx, robot), r * direction), "the end of the stroke", speed=0.4)
     straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, HOVER]), "the retreat")
     moved = float(np.linalg.norm(object_matrix(world.physics, target)[:2, 3] - before[:2]))
     if moved < MIN_TARGET_MOTION:

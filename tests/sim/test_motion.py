@@ -1,0 +1,76 @@
+"""OMPL motion planning on the planning mirror: paths avoid obstacles, replay exactly, and the
+physics client is never touched while planning."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gfc.plan.schema import Scene
+from gfc.sim.bodies import TABLE_TOP_Z
+from gfc.sim.collision import first_collision_on_segment, make_collision_fn
+from gfc.sim.ik import solve_ik
+from gfc.sim.motion import plan_motion
+from gfc.sim.panda import HOME_JOINTS, arm_joints
+from gfc.sim.world import World, build_world, entity_poses
+from gfc.tasks.base import frame
+
+# A rack (a bar on two legs, 12 cm high) right under the left hand's way from one side to the other.
+SCENE = Scene.model_validate(
+    {
+        "robots": [
+            {"name": "left", "base": [0.0, 0.35, TABLE_TOP_Z]},
+            {"name": "right", "base": [0.0, -0.35, TABLE_TOP_Z]},
+        ],
+        "objects": [
+            {"name": "rack", "kind": "rack", "pose": [0.45, 0.35, TABLE_TOP_Z, 0, 0, 0, 1], "fixed": True}
+        ],
+    }
+)
+DOWN = np.diag([1.0, -1.0, -1.0])
+
+
+def _goals(world: World) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(0)
+    home = np.asarray(HOME_JOINTS)
+    near = solve_ik(world, "left", frame([0.45, 0.76, TABLE_TOP_Z + 0.05], DOWN), home, rng)
+    far = solve_ik(world, "left", frame([0.45, -0.06, TABLE_TOP_Z + 0.05], DOWN), home, rng)
+    assert near is not None and far is not None
+    return near, far
+
+
+@pytest.mark.slow
+def test_rrt_connect_goes_around_the_rack_and_replays_exactly() -> None:
+    with build_world(SCENE) as world:
+        check = make_collision_fn(world, ["left"])
+        start, goal = _goals(world)
+        assert first_collision_on_segment(check, start, goal) is not None, "the direct path must be blocked"
+        before = entity_poses(world)
+        joints_before = arm_joints(world.client, world.physics.robots["left"])
+        first = plan_motion(check, start, goal, np.random.default_rng(3))
+        second = plan_motion(check, start, goal, np.random.default_rng(3))
+        assert first.path is not None and second.path is not None
+        assert "RRTConnect" in first.reason
+        np.testing.assert_array_equal(np.stack(first.path), np.stack(second.path))
+        for a, b in zip(first.path[:-1], first.path[1:], strict=True):
+            assert first_collision_on_segment(check, a, b, resolution=0.01) is None
+        np.testing.assert_allclose(first.path[0], start)
+        np.testing.assert_allclose(first.path[-1], goal)
+        assert entity_poses(world) == before, "planning must not move anything in the physics client"
+        np.testing.assert_array_equal(arm_joints(world.client, world.physics.robots["left"]), joints_before)
+
+
+def test_goal_inside_an_obstacle_is_reported() -> None:
+    with build_world(SCENE) as world:
+        check = make_collision_fn(world, ["left"])
+        inside = solve_ik(
+            world,
+            "left",
+            frame([0.45, 0.35, TABLE_TOP_Z + 0.11], DOWN),
+            np.asarray(HOME_JOINTS),
+            np.random.default_rng(0),
+        )
+        assert inside is not None
+        result = plan_motion(check, np.asarray(HOME_JOINTS), inside, np.random.default_rng(0))
+        assert result.path is None
+        assert "goal in collision" in result.reason and "rack" in result.reason

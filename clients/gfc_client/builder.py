@@ -47,12 +47,14 @@ class _Factors:
         self._builder = builder
         self._entries = entries
 
-    def add(self, type: str, *, at: Ref = "end", weight: float | None = None, **fields: Any) -> PlanBuilder:
+    def add(
+        self, factor_type: str, *, at: Ref = "end", weight: float | None = None, **fields: Any
+    ) -> PlanBuilder:
         """Any factor type by name (``inside``, ``aligned``, ``fixed_transform``, ``yaw``, ...)."""
         for key in ("object", "target"):
             if key in fields:
-                self._builder._require_entity(fields[key], f"{type}.{key}")
-        entry: dict[str, Any] = {"type": type, **{k: v for k, v in fields.items() if v is not None}}
+                self._builder._require_entity(fields[key], f"{factor_type}.{key}")
+        entry: dict[str, Any] = {"type": factor_type, **{k: v for k, v in fields.items() if v is not None}}
         entry["at"] = list(at) if isinstance(at, Sequence) and not isinstance(at, str) else at
         if weight is not None:
             entry["weight"] = weight

@@ -6,6 +6,7 @@ import typer
 
 from gfc.cli.bench import bench_app
 from gfc.cli.plan_commands import register_plan_commands
+from gfc.cli.remote import register_remote_commands
 from gfc.cli.serve import register_serve_command
 from gfc.cli.train import register_train_command
 from gfc.sim.cli import register_sim_commands, sim_app
@@ -27,6 +28,7 @@ app = typer.Typer(
     add_completion=False,
 )
 register_plan_commands(app)
+register_remote_commands(app)
 register_serve_command(app)
 register_train_command(app)
 register_sim_commands(app)

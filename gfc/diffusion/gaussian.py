@@ -98,12 +98,14 @@ class GaussianBank:
             slots[rows[keep], roles[m][keep]] = x[m][keep]
             pres[rows[keep], roles[m][keep]] = True
             flat = factor.layout.unpad(slots)  # (R, total)
-            patterns, inverse = torch.unique(pres, dim=0, return_inverse=True)
+            # Group rows by which tokens they carry (a bitmask per row: cheap to deduplicate).
+            codes = (pres.long() << torch.arange(t)).sum(dim=1)  # (R,)
             result = flat.clone()
-            for p, pattern in enumerate(patterns):
+            for code in torch.unique(codes).tolist():
+                pattern = (code >> torch.arange(t)) & 1 == 1
                 if not pattern.any():
                     continue
-                sel = inverse == p
+                sel = codes == code
                 result[sel] = factor.denoise_flat(flat[sel], sigma[m, sel], pattern)
             denoised = factor.layout.pad(result, self.max_dim)  # (R, T_model, D)
             out[m][keep] = denoised[rows[keep], roles[m][keep]]

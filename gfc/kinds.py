@@ -116,7 +116,7 @@ OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
         "hook",
         "an L-shaped tool: a long shaft along x and a short hook along +y at its far end",
         half_extents=(0.2, 0.06, 0.015),
-        frames={"tip": (0.2, 0.1, 0.015, 0.0, 0.0, 0.0, 1.0)},
+        frames={"tip": (0.185, 0.05, 0.015, 0.0, 0.0, 0.0, 1.0)},
     ),
     ObjectKind(
         "rack",

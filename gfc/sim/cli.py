@@ -31,6 +31,35 @@ sim_app = typer.Typer(
 )
 console = Console()
 
+DEMO_HELP = (
+    "Run a benchmark task's hand-written reference parameters on one sampled scene.\n\n"
+    "Samples TASK's scene for SEED, executes the reference actions under physics, prints the "
+    "per-step outcome (success or failure type 1/2/3 with the reason) and the goal check, and "
+    "writes a key frame per stage (frame_NN.png) plus strip.png into OUT.\n\n"
+    "Exits 0 only when every step succeeded and the task's goal holds in the simulator "
+    "afterwards.\n\n"
+    "Example: gfc sim demo hammer_nail --seed 3 --out frames/"
+)
+RENDER_HELP = "Draw a plan's initial scene to a PNG, headless (ER_TINY_RENDERER), after it settles."
+BENCH_HELP = (
+    "Time the simulator and write a Markdown table.\n\n"
+    "Measures physics steps per second, scene building, RRTConnect around an obstacle, and the "
+    "wall time of every skill and every full plan, running each task's reference parameters on "
+    "SCENES sampled scenes.\n\n"
+    "Example: gfc sim bench --scenes 10 --out docs/bench/sim.md"
+)
+VERIFY_HELP = (
+    "Execute a plan's candidates in the simulator and print a per-step table.\n\n"
+    "Candidates run best rank first, each in a freshly built scene. Each step reports success "
+    "or failure type 1 (no IK solution / precondition not met), 2 (no collision-free path) or 3 "
+    "(physics: dropped, slipped, missed, spilled), with the reason; then the plan's goal is "
+    "checked in the simulator.\n\n"
+    "Exits 0 when at least one candidate succeeds (every step and the goal), 1 when none does, "
+    "2 when the inputs are invalid.\n\n"
+    "Example: gfc sim demo pot_reorientation --candidates run/ && "
+    "gfc verify run/plan.json run/candidates.json"
+)
+
 
 @sim_app.command("tasks")
 def list_tasks() -> None:
@@ -40,7 +69,7 @@ def list_tasks() -> None:
         console.print(f"[bold]{name}[/]: {' '.join(doc.split())}")
 
 
-@sim_app.command("demo")
+@sim_app.command("demo", help=DEMO_HELP)
 def demo(
     task: Annotated[str, typer.Argument(help=f"Task name: {', '.join(sorted(TASKS))}.")],
     seed: Annotated[int, typer.Option(help="Scene seed: object poses are sampled from it.")] = 0,
@@ -52,13 +81,6 @@ def demo(
         typer.Option(help="Also write the plan and reference actions here (plan.json, candidates.json)."),
     ] = None,
 ) -> None:
-    """Sample TASK's scene for SEED, execute its hand-written reference parameters, print the
-    per-step outcome and write key frames into OUT.
-
-    Exits 0 only when every step succeeded and the task's goal holds in the simulator afterwards.
-
-    Example: gfc sim demo hammer_place --seed 3 --out frames/
-    """
     try:
         instance = sample_task(task, seed)
     except KeyError as exc:
@@ -83,31 +105,24 @@ def demo(
     raise typer.Exit(0 if outcome.success else 1)
 
 
-@sim_app.command("render")
+@sim_app.command("render", help=RENDER_HELP)
 def render_scene(
     plan: Annotated[Path, typer.Argument(help="Plan JSON whose scene to draw.")],
     out: Annotated[Path, typer.Option(help="PNG to write.")] = Path("scene.png"),
 ) -> None:
-    """Draw a plan's initial scene (after it settles under gravity) to a PNG, headless."""
     request = _load(plan)
     with build_world(request.scene) as world:
         save_png(render(world), out)
     console.print(f"wrote {out}")
 
 
-@sim_app.command("bench")
+@sim_app.command("bench", help=BENCH_HELP)
 def bench(
     scenes: Annotated[int, typer.Option(help="Sampled scenes per task.")] = 10,
     out: Annotated[
         Path | None, typer.Option(help="Write the Markdown table here (e.g. docs/bench/sim.md).")
     ] = None,
 ) -> None:
-    """Time the simulator: physics steps per second, scene building, RRTConnect, and the wall
-    time of every skill and every full plan, running each task's reference parameters on SCENES
-    sampled scenes.
-
-    Example: gfc sim bench --scenes 10 --out docs/bench/sim.md
-    """
     from gfc.sim.bench import run_benchmark, to_markdown
 
     command = f"gfc sim bench --scenes {scenes}" + (f" --out {out}" if out else "")
@@ -142,15 +157,6 @@ def verify(
     ] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write all outcomes as JSON here.")] = None,
 ) -> None:
-    """Execute candidates for PLAN in the simulator, best rank first, each in a fresh scene, and
-    print a per-step table: success, or failure type 1 (no IK / precondition), 2 (no
-    collision-free path), 3 (physics), with the reason.
-
-    Exits 0 when at least one candidate succeeds (all steps and the plan's goal), 1 when none
-    does, 2 when the inputs are invalid.
-
-    Example: gfc sim demo hammer_place --candidates run/ && gfc verify run/plan.json run/candidates.json
-    """
     request = _load(plan)
     try:
         ranked = sorted(load_candidates(candidates).candidates, key=lambda c: c.rank)[:top]
@@ -177,4 +183,4 @@ def verify(
 
 def register_sim_commands(app: typer.Typer) -> None:
     """Top-level commands that belong to the simulator (``gfc verify``)."""
-    app.command("verify")(verify)
+    app.command("verify", help=VERIFY_HELP)(verify)

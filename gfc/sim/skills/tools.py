@@ -48,11 +48,13 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
     world_from_tool[:3, 3] = tip_world[:3] - world_from_tool[:3, :3] @ object_from_tip[:3, 3]
     world_from_tool[2, 3] = world_from_target[2, 3] + 0.002
     world_from_ee = world_from_tool @ invert(world.grasps[robot].ee_from_object)
-    reach(ctx, robot, translated(world_from_ee, [0.0, 0.0, HOVER]), f"above the {target}")
+    direction = sign * world_from_tool[:3, 0]
+    stroke_end = translated(world_from_ee, r * direction)
+    above = translated(world_from_ee, [0.0, 0.0, HOVER])
+    reach(ctx, robot, above, f"above the {target}", [world_from_ee, stroke_end])
     straight(ctx, robot, world_from_ee, "the working height")
     before = object_matrix(world.physics, target)[:3, 3]
-    direction = sign * world_from_tool[:3, 0]
-    straight(ctx, robot, translated(ee(ctx, robot), r * direction), "the end of the stroke", speed=0.4)
+    straight(ctx, robot, stroke_end, "the end of the stroke", speed=0.4)
     straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, HOVER]), "the retreat")
     moved = float(np.linalg.norm(object_matrix(world.physics, target)[:2, 3] - before[:2]))
     if moved < MIN_TARGET_MOTION:

@@ -2,7 +2,7 @@
 
 A configuration is in collision when a moving body (an acting arm or an object one of them
 holds) penetrates anything by more than ``PENETRATION_TOLERANCE``: the table, the other arm,
-any object. Resting contact (the fingers on what they hold) is allowed; beads are ignored
+any object, or the arm itself (links two or more joints apart). Resting contact (the fingers on what they hold) is allowed; beads are ignored
 because they are contents, not obstacles.
 """
 
@@ -19,6 +19,12 @@ from gfc.sim.panda import ARM_DOF, HAND_LINKS, ee_matrix, set_joints
 from gfc.sim.world import World, place_in_mirror
 
 PENETRATION_TOLERANCE = 0.002
+# Link pairs of one arm that can collide: two or more joints apart (link -1 is the base; link 7
+# is the massless flange, fixed to link 6 and the hand, so link 6 and the hand are neighbours;
+# the fingers may touch each other and the hand).
+SELF_PAIRS = tuple(
+    (i, j) for i in range(-1, 7) for j in range(i + 2, 11) if j != 7 and not (i == 6 and j in (8, 9, 10))
+)
 
 
 @dataclass(frozen=True)
@@ -76,6 +82,14 @@ def make_collision_fn(
             set_joints(client, mirror.robots[r], q[i * ARM_DOF : (i + 1) * ARM_DOF], finger_half[r])
         for c in carried:
             place_in_mirror(mirror, c.object, ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object)
+        for r in robots:
+            body = mirror.robots[r].body
+            for i, j in SELF_PAIRS:
+                for contact in pb.getClosestPoints(
+                    body, body, 0.0, linkIndexA=i, linkIndexB=j, physicsClientId=client
+                ):
+                    if contact[8] < -PENETRATION_TOLERANCE:
+                        return Collision(r, f"itself (links {i} and {j})")
         pb.performCollisionDetection(physicsClientId=client)
         for body in moving_bodies:
             for contact in pb.getContactPoints(bodyA=body, physicsClientId=client):

@@ -74,3 +74,15 @@ def test_goal_inside_an_obstacle_is_reported() -> None:
         result = plan_motion(check, np.asarray(HOME_JOINTS), inside, np.random.default_rng(0))
         assert result.path is None
         assert "goal in collision" in result.reason and "rack" in result.reason
+
+
+def test_an_arm_folded_onto_itself_is_in_collision() -> None:
+    """Configurations within the joint limits can fold the hand back into the arm."""
+    with build_world(SCENE) as world:
+        check = make_collision_fn(world, ["right"])
+        assert check(np.asarray(HOME_JOINTS)) is None
+        folded = np.asarray(HOME_JOINTS).copy()
+        folded[3] = -2.84  # elbow folded further than at home
+        folded[5] = 0.78  # and the wrist tipped back: the fingers reach the shoulder
+        hit = check(folded)
+        assert hit is not None and hit.other.startswith("itself"), hit

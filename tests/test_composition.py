@@ -182,3 +182,65 @@ def test_removing_compensation_breaks_the_shared_node_case() -> None:
     mean_none, cov_none = closed_form(plan, factors, "none")
     mean_err, cov_err = moment_errors(sample(plan, factors, "none"), mean_none, cov_none)
     assert mean_err < Z_TOL and cov_err < Z_TOL, (mean_err, cov_err)
+
+
+def conditioned_on_first(
+    factors: list[GaussianFactor], plan: CompiledPlan, observed: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closed form of the (compensated) chain s0 -> s1 [-> s2] given s0 = observed."""
+    layout = VariableLayout.of(plan)
+    form = InformationForm(2 + layout.free_dim)
+    a0 = 2 + layout.action_offset[0]
+    s1 = [2 + layout.node_offset[1], 3 + layout.node_offset[1]]
+    form.add_factor(factors[0], [0, 1, a0, *s1])  # token order: s0, a0, s1
+    if len(factors) == 2:
+        a1 = 2 + layout.action_offset[1]
+        s2 = [2 + layout.node_offset[2], 3 + layout.node_offset[2]]
+        form.add_factor(factors[1], [*s1, a1, *s2])
+        form.add_marginal(factors[0], token_dims(factors[0], 2), s1, -0.5)
+        form.add_marginal(factors[1], token_dims(factors[1], 0), s1, -0.5)
+    p, h = form.precision, form.shift
+    cov = np.linalg.inv(p[2:, 2:])
+    return cov @ (h[2:] - p[2:, :2] @ np.array(observed)), cov
+
+
+def observed_chain(length: int) -> tuple[CompiledPlan, list[GaussianFactor], tuple[float, float]]:
+    dims = {0: 2, 1: 2, 2: 2}
+    observed = (0.8, -0.6)
+    nodes = [vector_node(0, "s", 0, 2, observed), *[vector_node(i, "s", i, 2) for i in range(1, length + 1)]]
+    fs = [factor(i, f"f{i}", [i], i, [i + 1], dims) for i in range(length)]
+    return (
+        plan_of(nodes, length, fs),
+        [random_gaussian(layout_of(f), 7 + i) for i, f in enumerate(fs)],
+        observed,
+    )
+
+
+def sample_known(
+    plan: CompiledPlan, factors: list[GaussianFactor], known: str, settings: SamplingSettings
+) -> np.ndarray:
+    composed = ComposedScore(plan, GaussianBank(factors), known=known)  # type: ignore[arg-type]
+    with torch.no_grad():
+        return sample_graph(composed, N_SAMPLES, settings, torch.Generator().manual_seed(0)).double().numpy()
+
+
+@pytest.mark.slow
+def test_observed_node_conditions_exactly_when_given_clean() -> None:
+    """One factor with an observed pre node, plain ODE sampling (the planner's default): clean
+    conditioning tokens give the exact conditional; the replacement method (observed +
+    sigma * eps) is visibly off."""
+    plan, factors, observed = observed_chain(1)
+    mean, cov = conditioned_on_first(factors, plan, observed)
+    ode = SamplingSettings(steps=60, sampler="heun", sigma_max=40.0)
+    mean_err, cov_err = moment_errors(sample_known(plan, factors, "clean", ode), mean, cov)
+    assert mean_err < Z_TOL and cov_err < Z_TOL, (mean_err, cov_err)
+    mean_err, cov_err = moment_errors(sample_known(plan, factors, "noised", ode), mean, cov)
+    assert max(mean_err, cov_err) > 2 * Z_TOL, (mean_err, cov_err)
+
+
+@pytest.mark.slow
+def test_observed_chain_with_shared_node_matches_the_conditional() -> None:
+    plan, factors, observed = observed_chain(2)
+    mean, cov = conditioned_on_first(factors, plan, observed)
+    mean_err, cov_err = moment_errors(sample_known(plan, factors, "clean", SETTINGS), mean, cov)
+    assert mean_err < Z_TOL and cov_err < Z_TOL, (mean_err, cov_err)

@@ -16,7 +16,7 @@ from gfc.diffusion.training import (
 )
 
 LAYOUT = TokenLayout((2, 1), ("object", "action"))
-CONFIG = DiTConfig(hidden=64, depth=2, heads=2, dropout=0.0)
+CONFIG = DiTConfig(hidden=64, depth=2, heads=2, dropout=0.0, conditioning=True)
 
 
 def bimodal(n: int, seed: int) -> torch.Tensor:
@@ -69,6 +69,12 @@ def test_trained_model_learns_the_joint_and_the_marginal() -> None:
     assert 0.35 < plus_m < 0.65
     assert abs(y_m - 0.1) < 0.03
     assert float(marginal[:, 0].abs().mean()) == pytest.approx(0.3, abs=0.05)
+
+    # Conditioned on a clean object token in the + mode, the action follows it (2 x = 0.6).
+    given_obj = torch.tensor([0.3, 0.1, 0.0])
+    conditional = sample_model(result.model, 500, given=(torch.tensor([True, False]), given_obj), generator=g)
+    assert torch.allclose(conditional[:, :2], given_obj[:2].expand(500, 2))  # the given token stays put
+    assert float(conditional[:, 2].median()) == pytest.approx(0.6, abs=0.08)
 
     # The same checks fail for an untrained model (it only knows the data's mean and spread).
     _, coupling_u, _ = check_samples(sample_model(untrained, 1000, generator=g))

@@ -79,9 +79,11 @@ class StackedDenoiserProtocol(Protocol):
         sigma: torch.Tensor,
         present: torch.Tensor,
         roles: torch.Tensor | None = None,
+        clean: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """x: (M, B, T, D_max), sigma: (M, B) or (M, 1), present: (M, B, T) bool, roles: (M, B, T) long
-        (the model's token slot at each position; default 0..T-1) -> (M, B, T, D_max)."""
+        (the model's token slot at each position; default 0..T-1), clean: (M, B, T) bool tokens
+        given without noise (only for models that accept them) -> (M, B, T, D_max)."""
         ...
 
     def denoise_with_lone(
@@ -91,8 +93,14 @@ class StackedDenoiserProtocol(Protocol):
         present: torch.Tensor,
         lone_x: torch.Tensor,
         lone_roles: torch.Tensor,
+        clean: torch.Tensor | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """Rows plus lone single-token queries (M, R, D) with roles (M, R); sigma (M, 1)."""
+        ...
+
+    @property
+    def accepts_clean(self) -> bool:
+        """Whether known nodes may be given clean (models trained with clean tokens)."""
         ...
 
 
@@ -132,12 +140,18 @@ class StackedDenoiser(nn.Module):
     def config(self) -> DiTConfig:
         return self.network.config
 
+    @property
+    def accepts_clean(self) -> bool:
+        """Whether the models were trained with clean conditioning tokens."""
+        return self.network.config.conditioning
+
     def denoise(
         self,
         x: torch.Tensor,
         sigma: torch.Tensor,
         present: torch.Tensor,
         roles: torch.Tensor | None = None,
+        clean: torch.Tensor | None = None,
     ) -> torch.Tensor:
         m, b, t, _ = x.shape
         if sigma.shape[1] > 1 and bool((sigma == sigma[:, :1]).all()):
@@ -148,9 +162,12 @@ class StackedDenoiser(nn.Module):
         mean = self.mean[models, roles]  # (M, B, T, D)
         std = self.std[models, roles]
         types = self.token_types[models, roles]  # (M, B, T)
-        s = edm_scalings(sigma[..., None, None], std)
+        token_sigma = sigma[..., None, None]  # (M, B or 1, 1, 1)
+        if clean is not None:  # clean tokens carry no noise: the identity (c_skip 1, c_out 0)
+            token_sigma = torch.where(clean[..., None], 0.0, token_sigma)
+        s = edm_scalings(token_sigma, std)
         centred = x - mean
-        out = self.network(s.c_in * centred, noise_conditioning(sigma), roles, types, present)
+        out = self.network(s.c_in * centred, noise_conditioning(sigma), roles, types, present, clean=clean)
         assert isinstance(out, torch.Tensor)
         # Preconditioning and the skip path stay in float32 whatever the network's precision:
         # at low noise the skip path carries almost all of the output.
@@ -163,6 +180,7 @@ class StackedDenoiser(nn.Module):
         present: torch.Tensor,
         lone_x: torch.Tensor,
         lone_roles: torch.Tensor,
+        clean: torch.Tensor | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """Rows and lone tokens (single-token marginal queries) in one network pass.
 
@@ -175,7 +193,10 @@ class StackedDenoiser(nn.Module):
         rows_mean, rows_std = self.mean[:, :t].unsqueeze(1), self.std[:, :t].unsqueeze(1)  # (M,1,T,D)
         lone_mean = self.mean[models.view(m, 1), lone_roles]  # (M, R, D)
         lone_std = self.std[models.view(m, 1), lone_roles]
-        rows_s = edm_scalings(sigma[..., None, None], rows_std)
+        rows_sigma = sigma[..., None, None]
+        if clean is not None:
+            rows_sigma = torch.where(clean[..., None], 0.0, rows_sigma)
+        rows_s = edm_scalings(rows_sigma, rows_std)
         lone_s = edm_scalings(sigma[..., None], lone_std)
         rows_centred, lone_centred = x - rows_mean, lone_x - lone_mean
         types = self.token_types[:, :t].unsqueeze(1).expand(m, b, t)
@@ -187,6 +208,7 @@ class StackedDenoiser(nn.Module):
             types,
             present,
             lone=(lone_s.c_in * lone_centred, lone_roles, lone_types),
+            clean=clean,
         )
         assert isinstance(out, tuple)
         rows_out, lone_out = out

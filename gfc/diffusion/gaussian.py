@@ -32,19 +32,29 @@ class GaussianFactor:
         ]
         return torch.cat(idx)
 
-    def denoise_flat(self, x: torch.Tensor, sigma: torch.Tensor, present: torch.Tensor) -> torch.Tensor:
-        """x: (R, total_dim), sigma: (R,), present: (T,) bool (one pattern for all rows)."""
+    def denoise_flat(
+        self, x: torch.Tensor, sigma: torch.Tensor, present: torch.Tensor, clean: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        """x: (R, total_dim), sigma: (R,), present / clean: (T,) bool (one pattern for all rows).
+
+        Clean tokens are observed exactly (noise variance 0): the result is the exact posterior
+        mean of the present tokens given the noisy ones and the clean ones.
+        """
         dims = self.dims_of(present)
         mu = self.mean[dims]
         cov = self.cov[dims][:, dims]
-        eye = torch.eye(len(dims), dtype=torch.float64)
+        noisy = torch.ones(len(dims), dtype=torch.float64)
+        if clean is not None and bool(clean.any()):
+            clean_dims = set(self.dims_of(clean & present).tolist())
+            noisy = torch.tensor([0.0 if int(d) in clean_dims else 1.0 for d in dims], dtype=torch.float64)
         xs = x[:, dims].double() - mu  # (R, K)
         out = x.clone()
         if bool((sigma == sigma[0]).all()):  # one level for all rows: one K x K solve
-            gain = torch.linalg.solve(cov + float(sigma[0]) ** 2 * eye, cov)  # (K, K)
+            noise = torch.diag(noisy * float(sigma[0]) ** 2)
+            gain = torch.linalg.solve(cov + noise, cov)  # (K, K)
             out[:, dims] = (mu + xs @ gain).to(x.dtype)
             return out
-        noisy_cov = cov.unsqueeze(0) + sigma.double().view(-1, 1, 1) ** 2 * eye  # (R, K, K)
+        noisy_cov = cov.unsqueeze(0) + torch.diag_embed(sigma.double().view(-1, 1) ** 2 * noisy)  # (R, K, K)
         sol = torch.linalg.solve(noisy_cov, xs.unsqueeze(-1)).squeeze(-1)  # (R, K)
         out[:, dims] = (mu + sol @ cov).to(x.dtype)  # cov symmetric: (cov @ sol^T)^T
         return out
@@ -58,6 +68,8 @@ class GaussianBank:
         self.layouts = [f.layout for f in factors]
         self.max_dim = max_dim or max(max(layout.dims) for layout in self.layouts)
 
+    accepts_clean = True  # exact conditionals are available in closed form
+
     @property
     def singles(self) -> list[GaussianBank]:
         return [GaussianBank([f], self.max_dim) for f in self.factors]
@@ -69,11 +81,12 @@ class GaussianBank:
         present: torch.Tensor,
         lone_x: torch.Tensor,
         lone_roles: torch.Tensor,
+        clean: torch.Tensor | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         m, r, _ = lone_x.shape
         ones = torch.ones(m, r, 1, dtype=torch.bool)
         lone = self.denoise(lone_x.unsqueeze(2), sigma, ones, lone_roles.unsqueeze(2))
-        return self.denoise(x, sigma, present), lone.squeeze(2)
+        return self.denoise(x, sigma, present, clean=clean), lone.squeeze(2)
 
     def denoise(
         self,
@@ -81,6 +94,7 @@ class GaussianBank:
         sigma: torch.Tensor,
         present: torch.Tensor,
         roles: torch.Tensor | None = None,
+        clean: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Same contract as ``StackedDenoiser.denoise``; positions are scattered to their roles."""
         m_count, b, t_in, d = x.shape
@@ -93,20 +107,25 @@ class GaussianBank:
             # Put every position into its role slot: (R, T_model, D), absent slots stay zero.
             slots = x.new_zeros(b, t, d)
             pres = torch.zeros(b, t, dtype=torch.bool)
+            clean_slots = torch.zeros(b, t, dtype=torch.bool)
             rows = torch.arange(b).unsqueeze(1).expand(b, t_in)  # (R, T_in) row of each position
             keep = present[m]
             slots[rows[keep], roles[m][keep]] = x[m][keep]
             pres[rows[keep], roles[m][keep]] = True
+            if clean is not None:
+                clean_slots[rows[keep], roles[m][keep]] = clean[m][keep]
             flat = factor.layout.unpad(slots)  # (R, total)
             # Group rows by which tokens they carry (a bitmask per row: cheap to deduplicate).
-            codes = (pres.long() << torch.arange(t)).sum(dim=1)  # (R,)
+            bits = torch.arange(t)
+            codes = (pres.long() << bits).sum(dim=1) + (clean_slots.long() << (bits + t)).sum(dim=1)  # (R,)
             result = flat.clone()
             for code in torch.unique(codes).tolist():
-                pattern = (code >> torch.arange(t)) & 1 == 1
+                pattern = (code >> bits) & 1 == 1
+                clean_pattern = (code >> (bits + t)) & 1 == 1
                 if not pattern.any():
                     continue
                 sel = codes == code
-                result[sel] = factor.denoise_flat(flat[sel], sigma[m, sel], pattern)
+                result[sel] = factor.denoise_flat(flat[sel], sigma[m, sel], pattern, clean_pattern)
             denoised = factor.layout.pad(result, self.max_dim)  # (R, T_model, D)
             out[m][keep] = denoised[rows[keep], roles[m][keep]]
         return out

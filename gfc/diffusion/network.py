@@ -38,6 +38,7 @@ class DiTConfig:
     dropout: float = 0.1  # in attention output and MLP (training only)
     max_token_dim: int = 10  # widest token (a robot node: pose 9 + gripper 1)
     freq_dim: int = 64  # sinusoidal noise-level embedding width
+    conditioning: bool = False  # trained with clean (observed) tokens: the planner may pass them clean
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -83,6 +84,7 @@ class DiTStack(nn.Module):
         self.enc_w = _param(m, n_types, d, h, std=1 / math.sqrt(d))
         self.enc_b = _param(m, n_types, h)
         self.role_emb = _param(m, t, h, std=std)
+        self.clean_emb = _param(m, h, std=std)  # marks a clean (conditioning) token
         self.t_w1 = _param(m, config.freq_dim, h, std=std)
         self.t_b1 = _param(m, h)
         self.t_w2 = _param(m, h, h, std=std)
@@ -121,6 +123,7 @@ class DiTStack(nn.Module):
         token_types: torch.Tensor,
         present: torch.Tensor,
         lone: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None,
+        clean: torch.Tensor | None = None,
     ) -> torch.Tensor | tuple[torch.Tensor, torch.Tensor]:
         """Rows of tokens, plus optionally lone tokens, through M networks in one pass.
 
@@ -133,6 +136,9 @@ class DiTStack(nn.Module):
         (a single-token marginal query: its attention is its own value). They share every
         linear layer's matmul with the rows, which is what makes them cheap. Requires
         c_noise of shape (M, 1). Returns (rows_out, lone_out) when given, else rows_out.
+
+        clean: (M, B, T) bool, row tokens given without noise (conditioning: observed nodes).
+        They get a learned marker so the model can tell them from noisy ones.
         """
         m, b, t, d = x.shape
         tokens = x.to(self.enc_w.dtype).reshape(m, b * t, d)
@@ -145,6 +151,9 @@ class DiTStack(nn.Module):
             roles_flat = torch.cat([roles_flat, roles_lone], dim=1)
             types_flat = torch.cat([types_flat, types_lone], dim=1)
         h = self._encode(tokens, roles_flat, types_flat)  # (M, N, H)
+        if clean is not None:
+            marker = clean.reshape(m, b * t, 1).to(h.dtype) * self.clean_emb.unsqueeze(1)  # (M, B*T, H)
+            h = torch.cat([h[:, : b * t] + marker, h[:, b * t :]], dim=1)
         c = F.silu(self.noise_embedding(c_noise))  # (M, B or 1, H)
         if c.shape[1] != 1:
             c = c.repeat_interleave(t, dim=1)  # per-row levels: one modulation per token

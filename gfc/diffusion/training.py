@@ -32,6 +32,7 @@ class TrainConfig:
     weight_decay: float = 1e-4
     ema_decay: float = 0.999
     marginal_share: float = 0.25  # share of rows that keep a random subset of tokens
+    clean_share: float = 0.3  # share of rows where some tokens are given clean (conditioning)
     grad_clip: float = 1.0
     p_mean: float = -1.2  # log-normal training noise (EDM)
     p_std: float = 1.2
@@ -64,29 +65,51 @@ def random_token_mask(batch: int, n_tokens: int, share: float, generator: torch.
     return mask
 
 
+def random_clean_mask(present: torch.Tensor, share: float, generator: torch.Generator) -> torch.Tensor:
+    """(B, T) bool: in ``share`` of the rows, a random subset of the present tokens is given
+    clean (as conditioning), always leaving at least one present token noisy."""
+    b, t = present.shape
+    chosen = (torch.rand(b, generator=generator) < share).unsqueeze(1)
+    clean = chosen & present & (torch.rand(b, t, generator=generator) < 0.5)
+    all_clean = (clean == present).all(dim=1) & present.any(dim=1)
+    if bool(all_clean.any()):  # un-clean one present token in those rows
+        scores = torch.rand(b, t, generator=generator) * present
+        keep_noisy = scores.argmax(dim=1)
+        clean[all_clean, keep_noisy[all_clean]] = False
+    return clean
+
+
 def dsm_loss(
     model: StackedDenoiser,
-    clean: torch.Tensor,
+    data: torch.Tensor,
     present: torch.Tensor,
     generator: torch.Generator,
     p_mean: float = -1.2,
     p_std: float = 1.2,
+    clean: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """EDM-weighted denoising loss of a one-model stack on flat data.
 
-    clean: (B, D) flat tokens in the model's frame; present: (B, T) bool.
+    data: (B, D) flat tokens in the model's frame; present: (B, T) bool; clean: (B, T) bool
+    tokens given without noise (conditioning; no loss on them).
     """
     layout = model.layouts[0]
     d_max = model.max_dim
-    b = clean.shape[0]
-    sigma = sample_training_sigmas(b, generator, p_mean, p_std).to(clean.dtype)  # (B,)
-    x0 = layout.pad(clean, d_max).unsqueeze(0)  # (1, B, T, D)
-    noisy = x0 + sigma.view(1, b, 1, 1) * torch.randn(x0.shape, generator=generator, dtype=x0.dtype)
-    denoised = model.denoise(noisy, sigma.view(1, b), present.unsqueeze(0))
+    b = data.shape[0]
+    sigma = sample_training_sigmas(b, generator, p_mean, p_std).to(data.dtype)  # (B,)
+    x0 = layout.pad(data, d_max).unsqueeze(0)  # (1, B, T, D)
+    noise = torch.randn(x0.shape, generator=generator, dtype=x0.dtype)
+    if clean is not None:
+        noise = noise * (~clean).unsqueeze(0).unsqueeze(-1)
+    noisy = x0 + sigma.view(1, b, 1, 1) * noise
+    denoised = model.denoise(
+        noisy, sigma.view(1, b), present.unsqueeze(0), clean=None if clean is None else clean.unsqueeze(0)
+    )
     std = model.std[:, : layout.n_tokens].unsqueeze(1)  # (1, 1, T, D)
     weight = (sigma.view(1, b, 1, 1) ** 2 + std**2) / (sigma.view(1, b, 1, 1) * std) ** 2
     dims = layout.dim_mask(d_max).unsqueeze(0).unsqueeze(0)  # (1, 1, T, D)
-    mask = (dims & present.unsqueeze(0).unsqueeze(-1)).to(clean.dtype)  # (1, B, T, D)
+    scored = present if clean is None else present & ~clean
+    mask = (dims & scored.unsqueeze(0).unsqueeze(-1)).to(data.dtype)  # (1, B, T, D)
     per_dim = weight * (denoised - x0) ** 2 * mask
     return per_dim.sum() / mask.sum().clamp_min(1.0)
 
@@ -117,6 +140,8 @@ def train_denoiser(
     layout: TokenLayout = model.layouts[0]
     if data.shape[1] != layout.total_dim:
         raise ValueError(f"data has {data.shape[1]} dims, the layout {layout.total_dim}")
+    if config.clean_share > 0 and not model.accepts_clean:
+        raise ValueError("training with clean tokens needs a model built with DiTConfig(conditioning=True)")
     generator = torch.Generator().manual_seed(config.seed)
     torch.manual_seed(config.seed)  # dropout inside the network
     model.train()
@@ -126,7 +151,8 @@ def train_denoiser(
     for step in range(config.steps):
         rows = torch.randint(data.shape[0], (config.batch_size,), generator=generator)
         present = random_token_mask(config.batch_size, layout.n_tokens, config.marginal_share, generator)
-        loss = dsm_loss(model, data[rows], present, generator, config.p_mean, config.p_std)
+        clean = random_clean_mask(present, config.clean_share, generator) if config.clean_share > 0 else None
+        loss = dsm_loss(model, data[rows], present, generator, config.p_mean, config.p_std, clean)
         optimiser.zero_grad(set_to_none=True)
         loss.backward()  # type: ignore[no-untyped-call]
         torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
@@ -156,17 +182,27 @@ def sample_model(
     present: torch.Tensor | None = None,
     sampler: str = "heun",
     generator: torch.Generator | None = None,
+    given: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> torch.Tensor:
-    """Draw n samples (flat, (n, D)) from one model; ``present`` (T,) samples a marginal."""
+    """Draw n samples (flat, (n, D)) from one model; ``present`` (T,) samples a marginal;
+    ``given`` = (clean tokens (T,) bool, flat values (D,)) samples a conditional."""
     layout = model.layouts[0]
     mask = torch.ones(layout.n_tokens, dtype=torch.bool) if present is None else present
     pres = mask.view(1, 1, -1).expand(1, n, -1)
+    clean = None if given is None else given[0].view(1, 1, -1).expand(1, n, -1)
+    flat_clean = (
+        None if given is None else layout.unpad(layout.dim_mask(model.max_dim) & given[0].view(-1, 1))
+    )
     std = float(model.std.max())
     sigmas = karras_sigmas(steps, sigma_max=max(3.0, 20 * std))
     x = torch.randn(n, layout.total_dim, generator=generator) * sigmas[0]
+    if given is not None and flat_clean is not None:
+        x = torch.where(flat_clean, given[1], x)
 
     def denoiser(x_flat: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
-        out = model.denoise(layout.pad(x_flat, model.max_dim).unsqueeze(0), sigma.view(1, 1), pres)
+        out = model.denoise(
+            layout.pad(x_flat, model.max_dim).unsqueeze(0), sigma.view(1, 1), pres, clean=clean
+        )
         return layout.unpad(out[0])
 
     with torch.no_grad():

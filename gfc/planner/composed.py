@@ -39,6 +39,11 @@ from gfc.plan.graph import CompiledPlan
 from gfc.planner.layout import VariableLayout, known_values_of
 from gfc.planner.spatial import SpatialTerms
 
+KnownNodes = Literal["auto", "clean", "noised"]
+"""How observed nodes enter the skill models: "clean" (as observed, flagged, for models trained
+with clean conditioning tokens: exact conditionals), "noised" (observed + sigma * eps, the
+replacement method: approximate), "auto" (clean when every model accepts it)."""
+
 Compensation = Literal["marginal", "mean", "none"]
 """How nodes shared by several temporal factors are counted once: "marginal" subtracts
 (d-1)/d of each factor's marginal score (exact, one extra single-token row per factor and shared
@@ -70,6 +75,7 @@ class ComposedScore:
         bank: StackedDenoiserProtocol,
         known_values: torch.Tensor | None = None,
         compensation: Compensation = "marginal",
+        known: KnownNodes = "auto",
     ) -> None:
         if len(bank.layouts) != len(plan.temporal):
             raise ValueError(
@@ -90,6 +96,7 @@ class ComposedScore:
         frame_a = np.tile(np.eye(d_max, dtype=np.float32), (n_factors, n_tokens, 1, 1))
         frame_b = np.zeros((n_factors, n_tokens, d_max), dtype=np.float32)
         present = np.zeros((n_factors, n_tokens), dtype=bool)
+        known_token = np.zeros((n_factors, n_tokens), dtype=bool)
         queries: list[list[tuple[int, float]]] = [[] for _ in range(n_factors)]
 
         for f, factor in enumerate(plan.temporal):
@@ -109,6 +116,7 @@ class ComposedScore:
                         start = self.layout.node_offset[node.id]
                     is_pose = node.dim >= POSE9_DIM  # robot and object states start with a pose9
                     free = not node.known
+                    known_token[f, t] = node.known
                     d = degree[node.id]
                     shared = free and d >= 2
                     if shared and compensation == "marginal":
@@ -141,6 +149,13 @@ class ComposedScore:
         self.frame_a = torch.from_numpy(frame_a).to(dtype)  # (F, T, D, D) world -> model
         self.frame_b = torch.from_numpy(frame_b).to(dtype)  # (F, T, D)
         self.present = torch.from_numpy(present)  # (F, T)
+        accepts_clean = bool(getattr(bank, "accepts_clean", False))
+        if known == "clean" and not accepts_clean:
+            raise ValueError(
+                "these skill models were not trained with clean conditioning tokens; use known='noised'"
+            )
+        self.clean_known = known == "clean" or (known == "auto" and accepts_clean)
+        self.known_token = torch.from_numpy(known_token)  # (F, T)
         self.query_token = torch.from_numpy(query_token)  # (F, Q)
         qt = self.query_token
         rows = torch.arange(n_factors).unsqueeze(1)
@@ -189,16 +204,19 @@ class ComposedScore:
         """Denoise factor rows (F, B, T, D) and query rows (F, Q*B, 1, D)."""
         f, b, t, _ = x.shape
         present = self.present.unsqueeze(1).expand(f, b, t)
+        clean = self.known_token.unsqueeze(1).expand(f, b, t) if self.clean_known else None
         q_roles = None
         if xq is not None:
             q_roles = self.query_token.unsqueeze(2).expand(-1, -1, b).reshape(f, -1, 1)
         if not per_factor:
             level = sigma.reshape(1, 1).expand(f, 1)  # one noise level for every row
             if xq is None:
-                return self.bank.denoise(x, level, present), None
+                return self.bank.denoise(x, level, present, clean=clean), None
             assert q_roles is not None
             # One pass: the queries ride along as lone tokens of the same matmuls.
-            out, out_lone = self.bank.denoise_with_lone(x, level, present, xq.squeeze(2), q_roles.squeeze(2))
+            out, out_lone = self.bank.denoise_with_lone(
+                x, level, present, xq.squeeze(2), q_roles.squeeze(2), clean=clean
+            )
             return out, out_lone.unsqueeze(2)
         singles = getattr(self.bank, "singles", None)
         if singles is None:
@@ -208,7 +226,10 @@ class ComposedScore:
         for i in range(f):
             n_tok = len(self.plan.temporal[i].tokens)
             out[i : i + 1, :, :n_tok] = singles[i].denoise(
-                x[i : i + 1, :, :n_tok], sigma.reshape(1, 1), present[i : i + 1, :, :n_tok]
+                x[i : i + 1, :, :n_tok],
+                sigma.reshape(1, 1),
+                present[i : i + 1, :, :n_tok],
+                clean=None if clean is None else clean[i : i + 1, :, :n_tok],
             )
             n_q = len(self.queries[i])
             if xq is not None and out_q is not None and n_q:
@@ -230,7 +251,14 @@ class ComposedScore:
         per_factor: bool = False,
     ) -> torch.Tensor:
         """Sum of temporal factor scores with compensation, on z. z: (B, N) -> (B, N)."""
-        full = torch.cat([z, self.known_values + sigma * known_noise], dim=1)
+        # Known nodes: exactly as observed for models trained with clean tokens (exact
+        # conditioning); otherwise noised to the current level (the replacement method).
+        known = (
+            self.known_values.expand(z.shape[0], -1)
+            if self.clean_known
+            else self.known_values + sigma * known_noise
+        )
+        full = torch.cat([z, known], dim=1)
         x = self.gather(full)
         xq = self.query_inputs(x) if self.has_queries else None
         denoised, denoised_q = self.evaluate(x, xq, sigma, per_factor)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import shlex
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -59,7 +59,9 @@ def train_skill(
     data, index = load_dataset(dataset_dir)
     train, val = split(data, held_out, config.seed)
     mean, std = data_statistics(train)
-    model = single_model(index.layout, network or DiTConfig(), mean, std)
+    # Trained with clean (observed) tokens too, so the planner can condition on them exactly.
+    config_net = replace(network or DiTConfig(), conditioning=config.clean_share > 0)
+    model = single_model(index.layout, config_net, mean, std)
     result = train_denoiser(
         model, train, config, val_data=val, on_step=on_step, val_every=max(1, config.steps // 20)
     )

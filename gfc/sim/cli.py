@@ -156,7 +156,18 @@ def verify(
         Path | None, typer.Option(help="Write key frames per candidate into this folder.")
     ] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write all outcomes as JSON here.")] = None,
+    url: Annotated[
+        str | None,
+        typer.Option(envvar="GFC_URL", help="Verify as a job on this service (gfc serve) instead of here."),
+    ] = None,
+    wait: Annotated[
+        bool, typer.Option("--wait/--no-wait", help="With --url: wait for the job's result.")
+    ] = True,
 ) -> None:
+    if url is not None:
+        from gfc.cli.remote import verify_remote
+
+        raise typer.Exit(verify_remote(plan, candidates, url, wait, seed=seed, top_k=top))
     request = _load(plan)
     try:
         ranked = sorted(load_candidates(candidates).candidates, key=lambda c: c.rank)[:top]

@@ -119,6 +119,8 @@ def run_load(
             "steps": steps,
             "max_concurrent_plans": settings.max_concurrent_plans,
             "max_queued_plans": settings.max_queued_plans,
+            "max_batch": settings.max_batch,
+            "batch_window_ms": settings.batch_window_ms,
         }
     )
     return result
@@ -132,8 +134,9 @@ def load_markdown(result: dict[str, Any], command: str) -> str:
             "",
             f"Workload: {result['workload']}, {result['candidates']} candidates, {result['steps']} steps; "
             f"{result['clients']} concurrent clients on loopback, at most {result['requests_sent']} requests; "
-            f"the service runs {result['max_concurrent_plans']} plans at once and queues "
-            f"{result['max_queued_plans']} more, refusing the rest with 503 + Retry-After.",
+            f"the service runs {result['max_concurrent_plans']} sampling runs at once, each batching up to "
+            f"{result['max_batch']} plans that arrive within {result['batch_window_ms']:g} ms, holds "
+            f"{result['max_queued_plans']} more waiting, and refuses the rest with 503 + Retry-After.",
             "",
             "| clients | requests | wall s | ok/s | p50 s | p99 s | statuses | 5xx other than 503 | 503 without Retry-After |",
             "| ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: |",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import typer
 
 from gfc.cli.bench import bench_app
+from gfc.cli.collect import register_collect_command
 from gfc.cli.plan_commands import register_plan_commands
 from gfc.cli.remote import register_remote_commands
 from gfc.cli.serve import register_serve_command
@@ -30,6 +31,7 @@ app = typer.Typer(
 register_plan_commands(app)
 register_remote_commands(app)
 register_serve_command(app)
+register_collect_command(app)
 register_train_command(app)
 register_sim_commands(app)
 app.add_typer(sim_app, name="sim")

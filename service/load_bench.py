@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import asyncio
 import statistics
-import threading
 import time
 from collections import Counter
 from collections.abc import Iterator
@@ -14,12 +13,12 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-import uvicorn
 
 from gfc.examples import load_example
 from gfc.plan import compile_plan
 from gfc.planner.library import random_library
 from service.catalog import InMemoryCatalog
+from service.local_server import serve_in_thread
 from service.main import create_app
 from service.settings import Settings
 
@@ -27,17 +26,8 @@ from service.settings import Settings
 @contextmanager
 def _server(settings: Settings, port: int) -> Iterator[str]:
     library = random_library(compile_plan(load_example("hammer_place")))
-    app = create_app(settings, library, InMemoryCatalog(library))
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    while not server.started:
-        time.sleep(0.02)
-    try:
-        yield f"http://127.0.0.1:{port}"
-    finally:
-        server.should_exit = True
-        thread.join(timeout=30)
+    with serve_in_thread(create_app(settings, library, InMemoryCatalog(library)), port) as url:
+        yield url
 
 
 def _percentile(values: list[float], q: float) -> float:
@@ -101,12 +91,6 @@ def run_load(
     port: int = 0,
     settings: Settings | None = None,
 ) -> dict[str, Any]:
-    import socket
-
-    if port == 0:
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            port = int(s.getsockname()[1])
     plan = load_example("hammer_place")
     plan["options"] = {"candidates": candidates, "top_k": min(5, candidates), "steps": steps, "seed": 0}
     settings = settings or Settings(data_dir=Path("var/bench"))

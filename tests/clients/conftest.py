@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import uvicorn
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, Response
 
@@ -19,8 +18,9 @@ from gfc.examples import load_example
 from gfc.plan import compile_plan
 from gfc.planner.library import InMemoryLibrary, random_library
 from service.jobs import JobStore, open_job_store
+from service.local_server import free_port, serve_in_thread
 from service.settings import Settings
-from tests.service.conftest import free_port, running_server
+from tests.service.conftest import running_server
 
 
 def small(plan: dict[str, Any], **options: Any) -> dict[str, Any]:
@@ -113,19 +113,8 @@ def scripted_app(script: Script) -> FastAPI:
 def script() -> Iterator[Script]:
     port = free_port()
     script = Script(f"http://127.0.0.1:{port}")
-    config = uvicorn.Config(scripted_app(script), host="127.0.0.1", port=port, log_level="warning")
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started:
-        assert time.monotonic() < deadline, "scripted server did not start"
-        time.sleep(0.01)
-    try:
+    with serve_in_thread(scripted_app(script), port):
         yield script
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
 
 
 VERIFIED = {

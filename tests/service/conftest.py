@@ -2,47 +2,25 @@
 
 from __future__ import annotations
 
-import socket
-import threading
-import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import httpx
 import pytest
-import uvicorn
 
 from gfc.examples import load_example
 from gfc.plan import compile_plan
 from gfc.planner.library import InMemoryLibrary, random_library
 from service.catalog import InMemoryCatalog
+from service.local_server import serve_in_thread
 from service.main import create_app
 from service.settings import Settings
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @contextmanager
 def running_server(settings: Settings, library: InMemoryLibrary) -> Iterator[str]:
-    port = free_port()
-    app = create_app(settings, library, InMemoryCatalog(library))
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started:
-        if time.monotonic() > deadline:
-            raise RuntimeError("uvicorn did not start within 30 s")
-        time.sleep(0.02)
-    try:
-        yield f"http://127.0.0.1:{port}"
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
+    with serve_in_thread(create_app(settings, library, InMemoryCatalog(library))) as url:
+        yield url
 
 
 @pytest.fixture(scope="module")

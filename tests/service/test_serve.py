@@ -16,8 +16,8 @@ import pytest
 from gfc.examples import load_example
 from gfc.plan import compile_plan
 from gfc.planner.library import random_library
+from service.local_server import free_port
 from skill_store import SkillStore
-from tests.service.conftest import free_port
 
 
 @contextmanager

@@ -40,7 +40,7 @@ def test_example_compiles_to_expected_node_versions() -> None:
         ("pick.hammer", ["left@0", "hammer@0"], ["left@1", "hammer@1"]),
         ("move.hammer", ["left@1", "hammer@1"], ["left@2", "hammer@2"]),
         ("regrasp.hammer", ["right@0", "hammer@2", "left@2"], ["right@1", "hammer@3", "left@3"]),
-        ("place.hammer", ["right@1", "hammer@3", "box@0"], ["right@2", "hammer@4"]),
+        ("place.hammer.box", ["right@1", "hammer@3", "box@0"], ["right@2", "hammer@4"]),
     ]
     assert summary["spatial_factors"] == [
         {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]}

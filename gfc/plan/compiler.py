@@ -391,7 +391,9 @@ class _Compiler:
                 table = before if token.phase == "pre" else after
                 tokens.append(FactorToken(token.role, token.phase, token.dim, node=table[entity]))
             model = step.model or default_model_key(
-                spec.name, self.objects[step.object].kind if step.object else None
+                spec.name,
+                self.objects[step.object].kind if step.object else None,
+                self.objects[step.target].kind if step.target in self.objects else None,
             )
             self.temporal.append(
                 TemporalFactor(

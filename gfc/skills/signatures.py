@@ -181,6 +181,10 @@ def skill_spec(name: str) -> SkillSpec:
         raise KeyError(f"unknown skill {name!r} (known: {known})") from None
 
 
-def default_model_key(skill: str, object_kind: str | None) -> str:
-    """Skill models are trained per skill and object kind: ``pick.hammer``, ``move.empty``."""
-    return f"{skill}.{object_kind or 'empty'}"
+def default_model_key(skill: str, object_kind: str | None, target_kind: str | None = None) -> str:
+    """Skill models are trained per skill and object kind (``pick.hammer``, ``move.empty``), and
+    per target kind for skills that act on a target (``place.hammer.box``, ``strike.hammer.nail``):
+    where a cube goes on a lid and where it goes in a box are different distributions, and the
+    model sees the target only as a pose."""
+    key = f"{skill}.{object_kind or 'empty'}"
+    return key if target_kind is None or not skill_spec(skill).target_required else f"{key}.{target_kind}"

@@ -31,7 +31,7 @@ def test_plan_returns_typed_ranked_candidates(service: Service) -> None:
     assert all(len(s.action) == 9 for s in response.best.steps)
     assert response.best.residuals[0].type == "inside"
     assert isinstance(response.best.satisfied, bool)
-    assert set(response.models) == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer"}
+    assert set(response.models) == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer.box"}
 
 
 def test_invalid_plan_raises_with_locations(service: Service) -> None:
@@ -121,7 +121,7 @@ def test_verify_arguments_are_checked_before_sending() -> None:
 def test_skills_health_and_metrics(service: Service) -> None:
     with Client(service.url) as client:
         skills = client.list_skills()
-        assert {s.name for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer"}
+        assert {s.name for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer.box"}
         pick = client.get_skill("pick.hammer")
         assert pick.name == "pick.hammer" and pick.versions[0].ready
         with pytest.raises(NotFoundError):

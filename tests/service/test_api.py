@@ -34,7 +34,7 @@ def test_plan_returns_ranked_candidates_for_every_step(client: httpx.Client) -> 
     assert all(len(s["action"]) == 9 and len(s["action_pose"]) == 7 for s in first["steps"])
     assert first["residuals"][0]["type"] == "inside"
     assert body["candidates"][0]["cost"] <= body["candidates"][1]["cost"]
-    assert set(body["models"]) == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer"}
+    assert set(body["models"]) == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer.box"}
     assert body["timing"]["total_s"] > 0
 
 
@@ -83,7 +83,7 @@ def test_oversized_body_is_413(client: httpx.Client) -> None:
 def test_skills_and_readiness(client: httpx.Client) -> None:
     skills = client.get("/skills").json()
     names = {s["name"] for s in skills}
-    assert {"pick.hammer", "strike.hammer"} <= names
+    assert {"pick.hammer", "strike.hammer.nail"} <= names
     assert all(v["ready"] for s in skills for v in s["versions"])
     assert client.get("/skills/pick.hammer").json()["name"] == "pick.hammer"
     missing = client.get("/skills/pick.anvil")

@@ -83,7 +83,7 @@ def test_serve_plans_with_skills_from_the_store(tmp_path: Path) -> None:
     with gfc_serve(tmp_path / "skills", tmp_path / "var") as url:
         assert httpx.get(f"{url}/health/ready", timeout=60).status_code == 200
         skills = httpx.get(f"{url}/skills", timeout=60).json()
-        assert {s["name"] for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer"}
+        assert {s["name"] for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer.box"}
         response = httpx.post(f"{url}/plan", json=plan, timeout=120)
         assert response.status_code == 200, response.text
         assert response.json()["models"]["pick.hammer"] == "pick.hammer@1"
@@ -173,8 +173,8 @@ def test_management_needs_the_token_and_moves_aliases(tmp_path: Path) -> None:
             httpx.post(f"{url}/plan", json=plan, timeout=120).json()["models"]["pick.hammer@production"]
             == "pick.hammer@2"
         )
-        loaded = httpx.post(f"{url}/admin/skills/place.hammer/load", headers=auth, timeout=60)
-        assert loaded.json() == {"loaded": "place.hammer@1"}
+        loaded = httpx.post(f"{url}/admin/skills/place.hammer.box/load", headers=auth, timeout=60)
+        assert loaded.json() == {"loaded": "place.hammer.box@1"}
         assert (
             httpx.post(f"{url}/admin/skills/pick.hammer/unload", headers=auth, timeout=30).json()["unloaded"]
             == 2

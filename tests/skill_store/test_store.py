@@ -95,7 +95,7 @@ def test_unknown_skills_versions_and_aliases_say_what_exists(
 ) -> None:
     store.publish("pick.hammer", model)
     with pytest.raises(SkillNotFoundError, match=r"no published version of place\.hammer"):
-        store.resolve("place.hammer")
+        store.resolve("place.hammer.box")
     with pytest.raises(SkillNotFoundError, match=r"no version 9 .*published: 1"):
         store.resolve("pick.hammer@9")
     with pytest.raises(SkillNotFoundError, match=r"no alias 'production'.*gfc skills alias"):

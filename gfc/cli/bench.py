@@ -85,3 +85,129 @@ def load(
     if json_file is not None:
         json_file.parent.mkdir(parents=True, exist_ok=True)
         json_file.write_text(json.dumps(result, indent=2) + "\n")
+
+
+def _names(values: list[str] | None) -> list[str]:
+    """Repeated options and comma-separated lists alike: ``--tasks a,b --tasks c``."""
+    return [n.strip() for v in values or [] for n in v.split(",") if n.strip()]
+
+
+@bench_app.command()
+def tasks(
+    task_names: Annotated[
+        list[str] | None,
+        typer.Option("--tasks", help="tasks (repeat or comma-separate; default: every registered task)"),
+    ] = None,
+    method_names: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--methods",
+            help="gfc, independent, linear_chain, random (default: these four); reference (an oracle)",
+        ),
+    ] = None,
+    trials: Annotated[int, typer.Option(min=1, help="scenes per task (the same for every method)")] = 100,
+    candidates: Annotated[int, typer.Option(min=5, help="candidates sampled per trial (any-5 needs 5)")] = 10,
+    steps: Annotated[int, typer.Option(min=1, help="reverse diffusion steps")] = 50,
+    json_file: Annotated[
+        Path | None, typer.Option("--json", help="also write the results as JSON here")
+    ] = None,
+    out: Annotated[Path, typer.Option(help="where the markdown report goes")] = Path("docs/results.md"),
+    plot: Annotated[Path | None, typer.Option(help="top-1 bar plot (PNG; default: next to --out)")] = None,
+    frames: Annotated[
+        bool,
+        typer.Option("--frames/--no-frames", help="key frames of one top-1 success and failure per task"),
+    ] = True,
+    processes: Annotated[int, typer.Option(min=1, help="simulator processes")] = 2,
+    seed: Annotated[int, typer.Option(min=0, help="first scene seed; trial i uses seed + i")] = 0,
+    skills: Annotated[
+        str | None, typer.Option(help="skill store location (default: the packaged library)")
+    ] = None,
+    random_weights: Annotated[
+        bool,
+        typer.Option(help="randomly initialised models instead of the store: checks the plumbing only"),
+    ] = False,
+    threads: Annotated[int, typer.Option(min=1, help="torch CPU threads for planning")] = 1,
+    ray: Annotated[
+        str | None, typer.Option(help="Ray address for the simulations (default: local processes)")
+    ] = None,
+) -> None:
+    """Success rates on the simulated tasks: top-1 and any-5 per task and method, failures by step
+    and type, median planning time. Writes the markdown report (with the command), the JSON, a
+    bar plot and key frames; see gfc/bench/tasks.py for what each number means."""
+    import torch
+    from rich.table import Table
+
+    from gfc.bench.methods import METHODS, MissingModelsError, PlanSettings
+    from gfc.bench.report import plot_top1, render_key_frames, results_markdown
+    from gfc.bench.tasks import random_weights_library, run_benchmark, summarise
+    from gfc.planner.library import SkillLibrary
+    from gfc.pool import make_pool
+    from gfc.tasks import ALL_TASKS
+
+    console = Console()
+    torch.set_num_threads(threads)
+    names = _names(task_names) or list(ALL_TASKS)
+    methods = _names(method_names) or list(METHODS)
+    library: SkillLibrary
+    if random_weights:
+        library = random_weights_library(names)
+        source = "skill models: **random weights** (a plumbing check: these success rates mean nothing)"
+    else:
+        from skill_store import DEFAULT_LIBRARY, SkillStore, StoreLibrary
+
+        store = SkillStore(skills or DEFAULT_LIBRARY)
+        library = StoreLibrary(store)
+        source = f"skill models: the skill store at `{store.location}` (latest version of each)"
+    settings = PlanSettings(candidates=candidates, steps=steps)
+    total = 2 * len(names) * len(methods) * trials
+    try:
+        with Progress(console=console, transient=True) as progress:
+            bar = progress.add_task("starting", total=total)
+            result = run_benchmark(
+                names,
+                methods,
+                trials,
+                library,
+                make_pool(ray, processes),
+                settings,
+                seed=seed,
+                on_progress=lambda msg, n: progress.update(bar, advance=n, description=msg),
+            )
+    except (MissingModelsError, KeyError, ValueError) as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
+    summary = summarise(result)
+    strips = render_key_frames(result, out.parent / out.stem) if frames else []
+    command = "gfc bench tasks " + " ".join(sys.argv[3:]) if len(sys.argv) > 3 else "gfc bench tasks"
+    notes = [
+        source,
+        f"{trials} scenes per task (seeds {seed}..{seed + trials - 1}), {candidates} candidates, "
+        f"{steps} sampling steps, {threads} torch thread(s)",
+    ]
+    plot_path = plot or out.parent / out.stem / "top1.png"
+    plot_top1(summary, plot_path)
+    notes.append(
+        f"plot: [{plot_path.name}]({plot_path.relative_to(out.parent).as_posix()})"
+        if plot_path.is_relative_to(out.parent)
+        else f"plot: {plot_path}"
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(results_markdown(summary, command.strip(), notes, strips, out))
+    if json_file is not None:
+        json_file.parent.mkdir(parents=True, exist_ok=True)
+        json_file.write_text(json.dumps(summary, indent=2) + "\n")
+    table = Table(title="task benchmark (top-1 / any-5)")
+    for column in ("task", "method", "top-1", "any-5", "trials", "plan s (median)"):
+        table.add_column(column)
+    for task, by_method in summary["tasks"].items():
+        for method, row in by_method.items():
+            table.add_row(
+                task,
+                method,
+                f"{100 * row['top1']:.0f}%",
+                f"{100 * row['any5']:.0f}%",
+                str(row["trials"]),
+                f"{row['plan_seconds_median']:.3f}",
+            )
+    console.print(table)
+    console.print(f"wrote {out}" + (f", {json_file}" if json_file else "") + f", {plot_path}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shlex
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -178,7 +179,13 @@ def tasks(
         raise typer.Exit(2) from None
     summary = summarise(result)
     strips = render_key_frames(result, out.parent / out.stem) if frames else []
-    command = "gfc bench tasks " + " ".join(sys.argv[3:]) if len(sys.argv) > 3 else "gfc bench tasks"
+    # The exact command line when run as `gfc bench tasks ...`; not invented when called otherwise.
+    argv = sys.argv[1:]
+    command = (
+        "gfc " + " ".join(shlex.quote(a) for a in argv)
+        if argv[:2] == ["bench", "tasks"]
+        else "gfc bench tasks (invoked from Python; command line unknown)"
+    )
     notes = [
         source,
         f"{trials} scenes per task (seeds {seed}..{seed + trials - 1}), {candidates} candidates, "
@@ -192,7 +199,7 @@ def tasks(
         else f"plot: {plot_path}"
     )
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(results_markdown(summary, command.strip(), notes, strips, out))
+    out.write_text(results_markdown(summary, command, notes, strips, out))
     if json_file is not None:
         json_file.parent.mkdir(parents=True, exist_ok=True)
         json_file.write_text(json.dumps(summary, indent=2) + "\n")

@@ -1,171 +1,186 @@
-"""Collect one skill's transitions in the simulator: random scenes, actions from a broad prior.
+"""Try one skill model's skill in the simulator: set-up, target stage, transition rows.
 
-A *scenario* samples a scene in which the skill is possible and proposes an action (a heuristic
-grasp, say). The collector perturbs the proposal (and draws a share of actions uniformly),
-executes the one-step plan in a fresh simulated world, and keeps (pre nodes, action, effect
-nodes) of the successes, expressed in the acting robot's base frame as the skill model sees
-them. Failures are counted by type. Work fans out over the simulation pool.
-
-Scenarios exist for ``pick`` so far; the other skills (which need a set-up: holding an object,
-a second robot holding it, ...) are the next step of the skill-learning issue.
+An *attempt* samples a scenario (``gfc.data.scenarios``), builds a fresh world, runs the set-up
+steps with their heuristic actions, reads the state the set-up left, draws the target stage's
+actions from a *source* (the collection prior, uniform random actions, or a trained model: the
+last two are what ``gfc skills check`` compares), executes the stage and, on success, returns
+one transition row per target step: (pre nodes, action, effect nodes) in the acting robot's base
+frame, the token order of ``SkillSpec.tokens``. A failed set-up is reported as such and never
+counted against the skill. Attempts are pure functions of their fields (pool-safe, seeded).
 """
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
 
 import numpy as np
 import torch
 
-from gfc.geometry import (
-    FloatArray,
-    matrix_to_pose9,
-    pose7_to_matrix,
-    pose7_to_pose9,
-    pose9_frame_map,
-    pose9_to_matrix,
-    yaw_quat,
-)
-from gfc.kinds import HOME_EE_POSE_IN_BASE, OBJECT_KINDS
-from gfc.plan.schema import PlanRequest
+from gfc.data.scenarios import Scenario, State, scenario_for
+from gfc.geometry import FloatArray, pose7_to_matrix, pose7_to_pose9, pose9_frame_map, yaw_quat
+from gfc.plan.schema import PlanRequest, Step
 from gfc.skills.signatures import skill_spec
 
-TABLE_Z = 0.625
-BASES = {"left": (0.0, 0.35, TABLE_Z), "right": (0.0, -0.35, TABLE_Z)}
-DOWN = np.diag([1.0, -1.0, -1.0])  # gripper pointing down, fingers closing along the object's y
-
-
-@dataclass(frozen=True)
-class Scenario:
-    plan: PlanRequest  # one step: the skill to collect
-    proposal: FloatArray  # heuristic action for that step
+SETUP_FAILED = "setup"
+Source = Literal["prior", "uniform", "model"]
 
 
 @dataclass(frozen=True)
 class Prior:
-    """How actions are drawn around a scenario's proposal."""
+    """How the collection draws target actions: the scenario's heuristic (with its noise), or,
+    for ``uniform_share`` of the attempts, uniformly random actions."""
 
-    position_noise: float = 0.015  # m, per axis
-    yaw_noise: float = math.radians(25)
-    uniform_share: float = 0.2  # actions drawn uniformly instead
-    uniform_extent: float = 0.12  # m, half size of the uniform position box around the object
-
-
-def _rot_z(angle: float) -> FloatArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _random_rotation(rng: np.random.Generator) -> FloatArray:
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    return pose7_to_matrix([0, 0, 0, *q])[:3, :3]
-
-
-def pick_scenario(kind: str) -> Callable[[np.random.Generator], Scenario]:
-    """An object of ``kind`` on the table in front of a random arm; a top-down grasp at mid
-    height across the object's narrower side."""
-    half = OBJECT_KINDS[kind].half_extents
-
-    def sample(rng: np.random.Generator) -> Scenario:
-        robot = str(rng.choice(["left", "right"]))
-        bx, by, _ = BASES[robot]
-        x, y = bx + rng.uniform(0.35, 0.55), by + rng.uniform(-0.15, 0.15)
-        yaw = rng.uniform(-math.pi, math.pi)
-        plan = PlanRequest.model_validate(
-            {
-                "scene": {
-                    "robots": [{"name": n, "base": list(b)} for n, b in BASES.items()],
-                    "objects": [{"name": "obj", "kind": kind, "pose": [x, y, TABLE_Z, *yaw_quat(yaw)]}],
-                },
-                "skeleton": [{"skill": "pick", "robot": robot, "object": "obj"}],
-            }
-        )
-        grasp_yaw = 0.0 if half[1] <= half[0] else math.pi / 2  # close across the narrower side
-        grasp = np.eye(4)
-        grasp[:3, :3] = _rot_z(grasp_yaw) @ DOWN
-        grasp[:3, 3] = [0.0, 0.0, min(half[2], 0.03)]
-        return Scenario(plan, matrix_to_pose9(grasp))
-
-    return sample
-
-
-SCENARIOS: dict[str, Callable[[str], Callable[[np.random.Generator], Scenario]]] = {"pick": pick_scenario}
-
-
-def draw_action(proposal: FloatArray, prior: Prior, rng: np.random.Generator) -> FloatArray:
-    """A 9-D pose action near the proposal, or (``uniform_share``) anywhere plausible."""
-    target = np.eye(4)
-    if rng.uniform() < prior.uniform_share:
-        target[:3, :3] = _random_rotation(rng)
-        lift = np.array([0.0, 0.0, prior.uniform_extent])  # above the table, around the object
-        target[:3, 3] = rng.uniform(-prior.uniform_extent, prior.uniform_extent, size=3) + lift
-    else:
-        base = pose9_to_matrix(proposal)
-        target[:3, :3] = _rot_z(rng.normal(0, prior.yaw_noise)) @ base[:3, :3]
-        target[:3, 3] = base[:3, 3] + rng.normal(0, prior.position_noise, size=3)
-    return matrix_to_pose9(target)
-
-
-def transition_row(plan: PlanRequest, action: FloatArray, after: dict[str, Any]) -> FloatArray:
-    """(pre nodes, action, effect nodes) of the plan's single step, flat, in the acting robot's
-    base frame (the token order of ``SkillSpec.tokens``)."""
-    step = plan.skeleton[0]
-    spec = skill_spec(step.skill)
-    robot = next(r for r in plan.scene.robots if r.name == step.robot)
-    world_from_base = pose7_to_matrix([*robot.base, *yaw_quat(robot.yaw)])
-    a, b = pose9_frame_map(world_from_base)
-    objects = {o.name: o for o in plan.scene.objects}
-    role_entity = {"robot": step.robot, "object": step.object, "target": step.target, "from": step.from_}
-
-    def node_before(entity: str) -> FloatArray:
-        if entity in objects:
-            return a @ pose7_to_pose9(objects[entity].pose) + b
-        # Robots start at home (as the plan compiler assumes for a scene without ee poses).
-        r = next(r for r in plan.scene.robots if r.name == entity)
-        world = matrix_to_pose9(
-            pose7_to_matrix([*r.base, *yaw_quat(r.yaw)]) @ pose7_to_matrix(HOME_EE_POSE_IN_BASE)
-        )
-        return np.concatenate([a @ world + b, [r.gripper]])
-
-    def node_after(entity: str) -> FloatArray:
-        pose = a @ pose7_to_pose9(after["poses"][entity]) + b
-        return np.concatenate([pose, [after["grippers"][entity]]]) if entity not in objects else pose
-
-    parts = [node_before(role_entity[r] or "") for r in spec.reads]
-    parts.append(np.asarray(action, dtype=np.float64))
-    parts += [node_after(role_entity[r] or "") for r in spec.writes]
-    return np.concatenate(parts)
+    uniform_share: float = 0.1
 
 
 @dataclass(frozen=True)
 class Attempt:
-    skill: str
-    kind: str
+    model: str  # skill model key, e.g. place.hammer.box
     seed: int
-    prior: Prior
+    source: Source = "prior"
+    prior: Prior = field(default_factory=Prior)
+    store: str | None = None  # for source="model": skill store location
+    ref: str | None = None  # for source="model": model reference (name or name@version)
+
+
+def world_state(poses: dict[str, list[float]], grippers: dict[str, float]) -> State:
+    return {"poses": poses, "grippers": grippers}
+
+
+def robot_frame_map(plan: PlanRequest, robot: str) -> tuple[FloatArray, FloatArray]:
+    spec = next(r for r in plan.scene.robots if r.name == robot)
+    return pose9_frame_map(pose7_to_matrix([*spec.base, *yaw_quat(spec.yaw)]))
+
+
+def node(plan: PlanRequest, step: Step, entity: str, state: State) -> FloatArray:
+    """One node as the step's model sees it: a 9-D pose in the acting robot's base frame, plus
+    the gripper opening for robots."""
+    a, b = robot_frame_map(plan, step.robot)
+    pose = a @ pose7_to_pose9(state["poses"][entity]) + b
+    robots = {r.name for r in plan.scene.robots}
+    return np.concatenate([pose, [state["grippers"][entity]]]) if entity in robots else pose
+
+
+def role_entity(step: Step, role: str) -> str:
+    entity = {"robot": step.robot, "object": step.object, "target": step.target, "from": step.from_}[role]
+    assert entity is not None, f"step {step.skill} has no {role}"
+    return entity
+
+
+def pre_nodes(plan: PlanRequest, step: Step, before: State) -> FloatArray:
+    spec = skill_spec(step.skill)
+    reads = [r for r in spec.reads if step.object is not None or r != "object"]
+    return np.concatenate([node(plan, step, role_entity(step, r), before) for r in reads])
+
+
+def transition_row(
+    plan: PlanRequest, step: Step, action: FloatArray, before: State, after: State
+) -> FloatArray:
+    """(pre nodes, action, effect nodes) of one step, flat, in the acting robot's base frame."""
+    spec = skill_spec(step.skill)
+    writes = [r for r in spec.writes if step.object is not None or r != "object"]
+    effect = [node(plan, step, role_entity(step, r), after) for r in writes]
+    return np.concatenate([pre_nodes(plan, step, before), np.asarray(action, dtype=np.float64), *effect])
+
+
+def stage_plan(plan: PlanRequest, steps: slice) -> PlanRequest:
+    return plan.model_copy(update={"skeleton": plan.skeleton[steps], "goal": []})
+
+
+ActionSource = Callable[[Scenario, State, np.random.Generator], list[FloatArray]]
+
+
+def prior_source(prior: Prior) -> ActionSource:
+    def draw(scenario: Scenario, before: State, rng: np.random.Generator) -> list[FloatArray]:
+        if rng.uniform() < prior.uniform_share:
+            return scenario.uniform(rng, before)
+        return scenario.propose(rng, before)
+
+    return draw
+
+
+def uniform_source(scenario: Scenario, before: State, rng: np.random.Generator) -> list[FloatArray]:
+    return scenario.uniform(rng, before)
+
+
+def action_source(attempt: Attempt) -> ActionSource:
+    if attempt.source == "prior":
+        return prior_source(attempt.prior)
+    if attempt.source == "uniform":
+        return uniform_source
+    from gfc.skills.check import model_source  # torch model loading only where it is needed
+
+    assert attempt.store is not None and attempt.ref is not None, "source='model' needs store and ref"
+    return model_source(attempt.store, attempt.ref)
 
 
 def run_attempt(attempt: Attempt) -> dict[str, Any]:
-    """One random scene and action, executed; the transition row on success. (Pool-safe.)"""
-    from gfc.sim.execute import execute_plan
+    """One scenario, executed: ``status`` is ``success`` (with ``rows``), ``failure`` (with the
+    type and reason) or ``setup`` (the set-up failed; not the skill's fault)."""
+    from gfc.sim.execute import execute_in_world
+    from gfc.sim.world import build_world
 
     rng = np.random.default_rng(attempt.seed)
-    scenario = SCENARIOS[attempt.skill](attempt.kind)(rng)
-    action = draw_action(scenario.proposal, attempt.prior, rng)
-    outcome = execute_plan(scenario.plan, [action], seed=attempt.seed)
-    step = outcome.steps[0]
-    if not step.success:
-        return {"success": False, "failure_type": step.failure_type}
-    row = transition_row(scenario.plan, action, {"poses": step.poses, "grippers": step.grippers})
-    return {"success": True, "row": [float(v) for v in row]}
+    scenario = scenario_for(attempt.model)(rng)
+    plan, k = scenario.plan, scenario.n_setup
+    with build_world(plan.scene, scenario.contents) as world:
+        if k:
+            setup = execute_in_world(
+                world, stage_plan(plan, slice(0, k)), scenario.setup_actions, attempt.seed
+            )
+            failed = next((s for s in setup.steps if not s.success), None)
+            if failed is not None or len(setup.steps) < k:
+                return {"status": SETUP_FAILED, "reason": failed.reason if failed else "set-up incomplete"}
+            before = world_state(setup.steps[-1].poses, setup.steps[-1].grippers)
+        else:
+            from gfc.sim.world import entity_poses, gripper_openings
+
+            before = world_state(entity_poses(world), gripper_openings(world))
+        actions = action_source(attempt)(scenario, before, rng)
+        target = stage_plan(plan, slice(k, None))
+        outcome = execute_in_world(world, target, actions, attempt.seed + 1)
+    last = outcome.steps[-1] if outcome.steps else None
+    if last is None or not all(s.success for s in outcome.steps):
+        failed = next((s for s in outcome.steps if not s.success), last)
+        return {
+            "status": "failure",
+            "failure_type": failed.failure_type if failed else None,
+            "reason": failed.reason if failed else "no step ran",
+            "actions": [[float(v) for v in a] for a in actions],
+        }
+    after = world_state(last.poses, last.grippers)
+    rows = [
+        transition_row(plan, step, a, before, after) for step, a in zip(target.skeleton, actions, strict=True)
+    ]
+    return {"status": "success", "rows": [[float(v) for v in row] for row in rows]}
 
 
-def summarise(results: list[dict[str, Any]]) -> tuple[torch.Tensor, int, dict[str, int]]:
-    rows = [r["row"] for r in results if r["success"]]
-    failures = Counter(str(r["failure_type"]) for r in results if not r["success"])
-    return torch.tensor(rows, dtype=torch.float32), len(results), dict(failures)
+@dataclass(frozen=True)
+class Summary:
+    rows: torch.Tensor  # (R, D) transition rows of the successes
+    attempts: int  # attempts whose set-up succeeded (the skill was really tried)
+    successes: int
+    failures: dict[str, int]  # failure type -> count; "setup" for failed set-ups
+
+    @property
+    def success_rate(self) -> float:
+        return self.successes / self.attempts if self.attempts else 0.0
+
+
+def summarise(results: list[dict[str, Any]], width: int) -> Summary:
+    rows = [row for r in results if r["status"] == "success" for row in r["rows"]]
+    failures = Counter(str(r["failure_type"]) for r in results if r["status"] == "failure")
+    setups = sum(r["status"] == SETUP_FAILED for r in results)
+    if setups:
+        failures[SETUP_FAILED] = setups
+    tried = len(results) - setups
+    data = torch.tensor(rows, dtype=torch.float32).reshape(-1, width)
+    return Summary(data, tried, sum(r["status"] == "success" for r in results), dict(failures))
+
+
+def attempts_for(model: str, seeds: range, source: Source = "prior", **fields: Any) -> list[Attempt]:
+    base = Attempt(model, 0, source, **fields)
+    return [replace(base, seed=s) for s in seeds]

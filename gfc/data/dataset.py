@@ -40,12 +40,16 @@ class Shard:
     file: str
     rows: int
     sha256: str
-    attempts: int  # executions that produced this shard (successes are the rows)
-    failures: dict[str, int] = field(default_factory=dict)  # failure type -> count
+    attempts: int  # executions that produced this shard
+    failures: dict[str, int] = field(default_factory=dict)  # failure type (or "setup") -> count
 
     @property
     def success_rate(self) -> float:
-        return self.rows / self.attempts if self.attempts else 0.0
+        """Successes over attempts whose set-up worked (a two-handed success gives two rows, so
+        this is not rows / attempts)."""
+        tried = self.attempts - self.failures.get("setup", 0)
+        failed = sum(v for k, v in self.failures.items() if k != "setup")
+        return (tried - failed) / tried if tried else 0.0
 
 
 @dataclass

@@ -78,8 +78,14 @@ def _plan_together(ctx: SkillContext, robots: Sequence[str], goals: Sequence[Flo
     execute_paths(ctx.world, paths, {r: gripper_target(ctx.world, r) for r in robots})
 
 
-def _solo_goal(ctx: SkillContext, robot: str, pose: FloatArray, what: str) -> FloatArray:
-    return free_ik(ctx, robot, pose, collision_fn(ctx, [robot]), what)
+def _solo_goal(
+    ctx: SkillContext,
+    robot: str,
+    pose: FloatArray,
+    what: str,
+    allowed: frozenset[tuple[str, str]] = frozenset(),
+) -> FloatArray:
+    return free_ik(ctx, robot, pose, collision_fn(ctx, [robot], allowed), what)
 
 
 def group_pick(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[FloatArray]) -> str:
@@ -141,7 +147,11 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
             )
         check = collision_fn(ctx, robots)
         for r, t in zip(robots, targets, strict=True):
-            _solo_goal(ctx, r, t, "the move target")  # type 1 when unreachable at all
+            # Each hand's target alone, with the other hand still where it is: the object they
+            # share may touch that other hand (it is held there now, and the joint path below is
+            # checked for both arms together).
+            others = frozenset((held[0], o) for o in robots if o != r)
+            _solo_goal(ctx, r, t, "the move target", others)  # type 1 when unreachable at all
         starts = [ee(ctx, r) for r in robots]
         count = max(waypoint_count(a, b) for a, b in zip(starts, targets, strict=True))
         lines = [interpolate_poses(a, b, count) for a, b in zip(starts, targets, strict=True)]

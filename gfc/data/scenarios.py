@@ -1,0 +1,422 @@
+"""Scenes in which one skill model's skill can be tried, with a heuristic and a uniform action prior.
+
+A *scenario* is a small plan: set-up steps with fixed heuristic actions (pick the object so
+that a ``place`` has something to put down), then the *target stage*: the step (or the group of
+steps, for the two-handed pot) whose transition the model learns. Only the target stage's
+actions are drawn from the prior; its pre nodes are read from the simulator after the set-up ran,
+so they are the states the robot really reached, not the ones the set-up asked for.
+
+The priors are deliberately broad and task-agnostic: grasps anywhere along a hammer's handle with
+the hand either way round, end-effector targets anywhere in a box in front of the arm, objects in
+random places on the table in front of either arm. Nothing here is copied from a benchmark task's
+scene; the tasks must be reached by composing these skills.
+
+Every pose action is a 9-vector (position, first two rotation columns). The heuristic proposal
+includes its own noise (a distribution, not a point); ``uniform`` draws from a plausible box
+around the relevant object with a uniformly random rotation (the baseline that ``gfc skills
+check`` compares against, and a share of the collection prior).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gfc.geometry import FloatArray, matrix_to_pose9, pose7_to_matrix, pose9_to_matrix, yaw_quat
+from gfc.kinds import OBJECT_KINDS
+from gfc.plan.schema import PlanRequest
+
+TABLE_Z = 0.625
+BASES = {"left": (0.0, 0.35, TABLE_Z), "right": (0.0, -0.35, TABLE_Z)}
+OTHER = {"left": "right", "right": "left"}
+DOWN = np.diag([1.0, -1.0, -1.0])  # gripper pointing down, fingers closing along the object's y
+Rng = np.random.Generator
+State = dict[str, Any]  # {"poses": {entity: world pose7}, "grippers": {robot: opening}}
+# Draws actions for the target steps, given the state the set-up left (a proposal may aim
+# relative to where things really are, e.g. turn the hand from its current orientation).
+ActionDraw = Callable[[Rng, State], list[FloatArray]]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A one-stage experiment for one skill model, after a (possibly empty) set-up."""
+
+    plan: PlanRequest  # set-up steps, then the target stage (the last ``n_target`` steps)
+    setup_actions: list[FloatArray | None]
+    n_target: int
+    propose: ActionDraw  # heuristic actions (with their own noise) for the target steps
+    uniform: ActionDraw  # uniformly random actions for the target steps
+    contents: dict[str, int] | None = None
+
+    @property
+    def n_setup(self) -> int:
+        return len(self.plan.skeleton) - self.n_target
+
+
+ScenarioSampler = Callable[[Rng], Scenario]
+
+
+# ---------------------------------------------------------------------------------- small helpers
+def rot_z(angle: float) -> FloatArray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def rot_x(angle: float) -> FloatArray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def random_rotation(rng: Rng) -> FloatArray:
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    return pose7_to_matrix([0, 0, 0, *q])[:3, :3]
+
+
+def pose9(position: FloatArray | list[float], rotation: FloatArray) -> FloatArray:
+    out = np.eye(4)
+    out[:3, :3] = rotation
+    out[:3, 3] = position
+    return matrix_to_pose9(out)
+
+
+def uniform_pose(rng: Rng, low: list[float], high: list[float]) -> FloatArray:
+    return pose9(rng.uniform(low, high), random_rotation(rng))
+
+
+def pose7(x: float, y: float, z: float, yaw: float = 0.0) -> list[float]:
+    return [x, y, z, *(float(v) for v in yaw_quat(yaw))]
+
+
+def in_front(
+    rng: Rng, robot: str, reach: tuple[float, float] = (0.35, 0.55), spread: float = 0.15
+) -> tuple[float, float]:
+    """A table position in front of ``robot``'s base."""
+    bx, by, _ = BASES[robot]
+    return bx + rng.uniform(*reach), by + rng.uniform(-spread, spread)
+
+
+def make_plan(objects: list[dict[str, object]], skeleton: list[dict[str, object]]) -> PlanRequest:
+    return PlanRequest.model_validate(
+        {
+            "scene": {
+                "robots": [{"name": n, "base": list(b)} for n, b in BASES.items()],
+                "objects": objects,
+            },
+            "skeleton": skeleton,
+        }
+    )
+
+
+def box_uniform(kind: str, margin: float = 0.02) -> ActionDraw:
+    """A grasp anywhere in (and a little around) the object's bounding box, any rotation."""
+    half = OBJECT_KINDS[kind].half_extents
+    low = [-half[0] - margin, -half[1] - margin, 0.0]
+    high = [half[0] + margin, half[1] + margin, 2 * half[2] + margin]
+    return lambda rng, _state: [uniform_pose(rng, low, high)]
+
+
+# ---------------------------------------------------------------------------------- grasps
+def grasp_proposal(kind: str, rng: Rng) -> FloatArray:
+    """A heuristic grasp of ``kind`` in its object frame, with noise: the broad prior of pick."""
+    half = OBJECT_KINDS[kind].half_extents
+    jitter = rng.normal(0.0, [0.006, 0.006, 0.004])
+    flip = float(rng.choice([0.0, math.pi]))  # the hand either way round
+    if kind in ("cube", "block"):
+        rotation = rot_z(rng.uniform(-math.pi, math.pi)) @ DOWN
+        return pose9(np.array([0.0, 0.0, 2 * half[2] - 0.015]) + jitter, rotation)
+    if kind == "hammer":  # anywhere along the handle, fingers across it
+        position = [rng.uniform(-0.11, 0.05), 0.0, 0.018]
+        return pose9(np.asarray(position) + jitter, rot_z(flip + rng.normal(0.0, 0.15)) @ DOWN)
+    if kind == "hook":  # along the shaft, away from the hook
+        position = [rng.uniform(-0.17, 0.05), 0.0, 0.018]
+        return pose9(np.asarray(position) + jitter, rot_z(flip + rng.normal(0.0, 0.15)) @ DOWN)
+    if kind == "lid":  # the knob from above
+        knob_z = OBJECT_KINDS["lid"].frames["knob"][2]
+        return pose9(np.array([0.0, 0.0, knob_z]) + jitter, rot_z(rng.uniform(-math.pi, math.pi)) @ DOWN)
+    if kind in ("nail", "mug", "cup"):
+        out: FloatArray = side_grasp(kind, rng) + np.concatenate([jitter, np.zeros(6)])
+        return out
+    raise KeyError(f"no grasp heuristic for {kind!r}")
+
+
+# Side grasp: approach (hand z) horizontal along the object's -x, fingers (hand y) along the
+# object's y, the hand's x axis up; rotated about the object's z for other approach directions.
+SIDE = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+SIDE_HEIGHT = {"nail": (0.03, 0.06), "mug": (0.06, 0.09), "cup": (0.035, 0.055)}
+SIDE_DEPTH = {"nail": 0.0, "mug": 0.005, "cup": 0.005}
+
+
+def side_grasp(kind: str, rng: Rng) -> FloatArray:
+    """From the side, at a random height and azimuth (a mug away from its handle at -x)."""
+    azimuth = rng.uniform(-1.6, 1.6) if kind == "mug" else rng.uniform(-math.pi, math.pi)
+    z = rng.uniform(*SIDE_HEIGHT[kind])
+    rotation = rot_z(azimuth) @ SIDE
+    offset = rot_z(azimuth) @ np.array([SIDE_DEPTH[kind], 0.0, 0.0])
+    return pose9([offset[0], offset[1], z], rotation)
+
+
+# ---------------------------------------------------------------------------------- pick
+def pick(kind: str) -> ScenarioSampler:
+    """An object of ``kind`` lying free on the table in front of a random arm."""
+
+    def sample(rng: Rng) -> Scenario:
+        robot = str(rng.choice(["left", "right"]))
+        x, y = in_front(rng, robot)
+        objects: list[dict[str, object]] = [
+            {"name": "obj", "kind": kind, "pose": pose7(x, y, TABLE_Z, rng.uniform(-math.pi, math.pi))}
+        ]
+        plan = make_plan(objects, [{"skill": "pick", "robot": robot, "object": "obj"}])
+        return Scenario(plan, [], 1, lambda r, _s: [grasp_proposal(kind, r)], box_uniform(kind))
+
+    return sample
+
+
+POT_HANDLE_GRASP_X = 0.03
+
+
+def pot_scene(rng: Rng) -> list[dict[str, object]]:
+    px, py = 0.45 + rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)
+    return [{"name": "pot", "kind": "pot", "pose": pose7(px, py, TABLE_Z, rng.uniform(-0.3, 0.3))}]
+
+
+def pot_grasps(rng: Rng, _state: State | None = None) -> list[FloatArray]:
+    """Both handles from above (left arm the +y handle), each with its own noise."""
+    out = []
+    for side in ("left", "right"):
+        handle = OBJECT_KINDS["pot"].frames[f"handle_{side}"]
+        nominal = np.array([POT_HANDLE_GRASP_X + rng.uniform(-0.025, 0.02), handle[1], handle[2]])
+        position = nominal + rng.normal(0.0, [0.0, 0.005, 0.004])
+        out.append(pose9(position, rot_z(rng.normal(0.0, 0.15)) @ DOWN))
+    return out
+
+
+def pick_pot(rng: Rng) -> Scenario:
+    """Both arms grasp the pot's handles and lift it together (one group)."""
+    skeleton: list[dict[str, object]] = [
+        {"skill": "pick", "robot": r, "object": "pot", "group": "grasp"} for r in ("left", "right")
+    ]
+    plan = make_plan(pot_scene(rng), skeleton)
+    uniform = box_uniform("pot")
+    return Scenario(plan, [], 2, pot_grasps, lambda r, s: uniform(r, s) + uniform(r, s))
+
+
+# ---------------------------------------------------------------------------------- move
+def hand_in_base(state: State, robot: str) -> FloatArray:
+    """The robot's end-effector pose in its base frame (bases are not rotated)."""
+    out = pose7_to_matrix(state["poses"][robot])
+    out[:3, 3] -= BASES[robot]
+    return out
+
+
+def move_target(rng: Rng, hand: FloatArray) -> FloatArray:
+    """An end-effector pose in the base frame: anywhere in a box in front of the arm, the hand
+    turned about the vertical from where it is (so what it holds stays upright), slightly tilted."""
+    rotation = rot_z(rng.uniform(-math.pi / 2, math.pi / 2)) @ rot_x(rng.normal(0.0, 0.08)) @ hand[:3, :3]
+    return pose9(rng.uniform([0.3, -0.3, 0.12], [0.65, 0.3, 0.45]), rotation)
+
+
+MOVE_UNIFORM_BOX = ([0.1, -0.5, -0.05], [0.8, 0.5, 0.6])
+
+
+def move_uniform(rng: Rng, _state: State) -> list[FloatArray]:
+    return [uniform_pose(rng, *MOVE_UNIFORM_BOX)]
+
+
+def move(kind: str) -> ScenarioSampler:
+    """Pick ``kind`` with a heuristic grasp, then move the hand (``empty``: no object)."""
+
+    def sample(rng: Rng) -> Scenario:
+        robot = str(rng.choice(["left", "right"]))
+
+        def propose(r: Rng, state: State) -> list[FloatArray]:
+            return [move_target(r, hand_in_base(state, robot))]
+
+        if kind == "empty":
+            return Scenario(make_plan([], [{"skill": "move", "robot": robot}]), [], 1, propose, move_uniform)
+        x, y = in_front(rng, robot)
+        objects: list[dict[str, object]] = [
+            {"name": "obj", "kind": kind, "pose": pose7(x, y, TABLE_Z, rng.uniform(-math.pi, math.pi))}
+        ]
+        skeleton: list[dict[str, object]] = [
+            {"skill": "pick", "robot": robot, "object": "obj"},
+            {"skill": "move", "robot": robot, "object": "obj"},
+        ]
+        setup: list[FloatArray | None] = [grasp_proposal(kind, rng)]
+        return Scenario(make_plan(objects, skeleton), setup, 1, propose, move_uniform)
+
+    return sample
+
+
+def move_pot(rng: Rng) -> Scenario:
+    """Both arms lift the pot, then carry it rigidly: turned about the vertical through its centre
+    and shifted a little; each hand's target follows from the pot's and the hands' real poses."""
+    skeleton: list[dict[str, object]] = [
+        *({"skill": "pick", "robot": r, "object": "pot", "group": "grasp"} for r in ("left", "right")),
+        *({"skill": "move", "robot": r, "object": "pot", "group": "turn"} for r in ("left", "right")),
+    ]
+
+    def propose(r: Rng, state: State) -> list[FloatArray]:
+        pot = pose7_to_matrix(state["poses"]["pot"])
+        moved = pot.copy()
+        moved[:3, :3] = rot_z(r.uniform(-1.0, 1.0)) @ pot[:3, :3]  # turns of up to 57 degrees
+        moved[:3, 3] += r.uniform([-0.04, -0.04, 0.0], [0.04, 0.04, 0.08])
+        out = []
+        for robot in ("left", "right"):
+            pot_from_hand = np.linalg.inv(pot) @ pose7_to_matrix(state["poses"][robot])
+            target = moved @ pot_from_hand
+            target[:3, 3] -= BASES[robot]
+            out.append(matrix_to_pose9(target))
+        return out
+
+    plan = make_plan(pot_scene(rng), skeleton)
+    return Scenario(
+        plan, list(pot_grasps(rng)), 2, propose, lambda r, s: move_uniform(r, s) + move_uniform(r, s)
+    )
+
+
+# ---------------------------------------------------------------------------------- place
+LID_PLATE_TOP = 0.012  # m: a cube resting on the lid's plate has its bottom here (lid frame)
+BOX_FLOOR = 0.01
+BOX_RIM = 2 * OBJECT_KINDS["box"].half_extents[2]
+
+
+def side_by_side(rng: Rng, robot: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Two table spots in front of ``robot``: the target further out, the object towards the
+    middle of the table (so that both arms' scenes mirror each other)."""
+    bx, by, _ = BASES[robot]
+    outward = 1.0 if by > 0 else -1.0
+    target = (bx + rng.uniform(0.45, 0.55), by + outward * rng.uniform(0.1, 0.2))
+    obj = (bx + rng.uniform(0.32, 0.42), target[1] - outward * rng.uniform(0.28, 0.33))
+    return target, obj
+
+
+def place_cube_on_lid(rng: Rng) -> Scenario:
+    robot = str(rng.choice(["left", "right"]))
+    (tx, ty), (ox, oy) = side_by_side(rng, robot)
+    objects: list[dict[str, object]] = [
+        {"name": "lid", "kind": "lid", "pose": pose7(tx, ty, TABLE_Z, rng.uniform(-0.3, 0.3))},
+        {"name": "obj", "kind": "cube", "pose": pose7(ox, oy, TABLE_Z, rng.uniform(-math.pi, math.pi))},
+    ]
+
+    def propose(r: Rng, _state: State) -> list[FloatArray]:
+        while True:  # anywhere on the plate, clear of the knob
+            x, y = r.uniform(-0.12, 0.12), r.uniform(-0.07, 0.07)
+            if abs(x) > 0.05 or abs(y) > 0.05:
+                break
+        z = LID_PLATE_TOP + r.normal(0.0, 0.002)
+        return [pose9([x, y, z], rot_z(r.uniform(-math.pi, math.pi)))]
+
+    half = OBJECT_KINDS["lid"].half_extents
+    uniform = lambda r, _s: [uniform_pose(r, [-half[0], -half[1], 0.0], [half[0], half[1], 0.1])]  # noqa: E731
+    return _place_scenario(robot, objects, "lid", grasp_proposal("cube", rng), propose, uniform)
+
+
+def _place_scenario(
+    robot: str,
+    objects: list[dict[str, object]],
+    target: str,
+    grasp: FloatArray,
+    propose: ActionDraw,
+    uniform: ActionDraw,
+) -> Scenario:
+    skeleton: list[dict[str, object]] = [
+        {"skill": "pick", "robot": robot, "object": "obj"},
+        {"skill": "place", "robot": robot, "object": "obj", "target": target},
+    ]
+    return Scenario(make_plan(objects, skeleton), [grasp], 1, propose, uniform)
+
+
+def _box_uniform(r: Rng, _state: State) -> list[FloatArray]:
+    half = OBJECT_KINDS["box"].half_extents
+    return [uniform_pose(r, [-half[0], -half[1], 0.0], [half[0], half[1], BOX_RIM + 0.08])]
+
+
+def place_in_box(kind: str) -> ScenarioSampler:
+    """Put ``kind`` into (hammer) or onto (lid: cover it) a fixed open box."""
+
+    def sample(rng: Rng) -> Scenario:
+        robot = str(rng.choice(["left", "right"]))
+        (tx, ty), (ox, oy) = side_by_side(rng, robot)
+        objects: list[dict[str, object]] = [
+            {
+                "name": "box",
+                "kind": "box",
+                "pose": pose7(tx, ty, TABLE_Z, rng.uniform(-0.2, 0.2)),
+                "fixed": True,
+            },
+            {"name": "obj", "kind": kind, "pose": pose7(ox, oy, TABLE_Z, rng.uniform(-0.4, 0.4))},
+        ]
+
+        def propose(r: Rng, _state: State) -> list[FloatArray]:
+            flip = float(r.choice([0.0, math.pi]))
+            if kind == "lid":
+                position = [r.normal(0.0, 0.006), r.normal(0.0, 0.006), BOX_RIM + 0.003]
+                return [pose9(position, rot_z(flip + r.normal(0.0, 0.04)))]
+            position = [r.normal(0.0, 0.01), r.uniform(-0.03, 0.03), BOX_FLOOR + 0.004 + r.normal(0.0, 0.002)]
+            return [pose9(position, rot_z(flip + r.normal(0.0, 0.08)))]
+
+        return _place_scenario(robot, objects, "box", grasp_proposal(kind, rng), propose, _box_uniform)
+
+    return sample
+
+
+# ---------------------------------------------------------------------------------- regrasp
+def regrasp_hammer(rng: Rng) -> Scenario:
+    """One arm picks the hammer near its head and holds it out between the arms, handle towards
+    the other arm, which takes it by the handle (anywhere clear of the giver's fingers)."""
+    giver = str(rng.choice(["left", "right"]))
+    receiver = OTHER[giver]
+    x, y = in_front(rng, giver, (0.3, 0.45), 0.1)
+    objects: list[dict[str, object]] = [
+        {"name": "obj", "kind": "hammer", "pose": pose7(x, y, TABLE_Z, rng.uniform(-0.5, 0.5))}
+    ]
+    grasp = pose9([rng.uniform(0.0, 0.05), 0.0, 0.018], rot_z(float(rng.choice([0.0, math.pi]))) @ DOWN)
+    # Held out: the head towards the giver, the handle towards the receiver.
+    towards_giver = math.pi / 2 if BASES[giver][1] > 0 else -math.pi / 2
+    hammer = np.eye(4)
+    hammer[:3, :3] = rot_z(towards_giver + rng.uniform(-0.3, 0.3))
+    hammer[:3, 3] = [
+        0.45 + rng.uniform(-0.05, 0.05),
+        rng.uniform(-0.04, 0.04),
+        TABLE_Z + rng.uniform(0.18, 0.3),
+    ]
+    hand = hammer @ pose9_to_matrix(grasp)
+    hand[:3, 3] -= BASES[giver]
+    skeleton: list[dict[str, object]] = [
+        {"skill": "pick", "robot": giver, "object": "obj"},
+        {"skill": "move", "robot": giver, "object": "obj"},
+        {"skill": "regrasp", "robot": receiver, "object": "obj", "from": giver},
+    ]
+
+    def propose(r: Rng, _state: State) -> list[FloatArray]:
+        position = [r.uniform(-0.11, -0.05), r.normal(0.0, 0.004), 0.018 + r.normal(0.0, 0.003)]
+        return [pose9(position, rot_z(float(r.choice([0.0, math.pi])) + r.normal(0.0, 0.15)) @ DOWN)]
+
+    setup: list[FloatArray | None] = [grasp, matrix_to_pose9(hand)]
+    return Scenario(make_plan(objects, skeleton), setup, 1, propose, box_uniform("hammer"))
+
+
+# ---------------------------------------------------------------------------------- registry
+SCENARIOS: dict[str, ScenarioSampler] = {
+    **{f"pick.{k}": pick(k) for k in ("cube", "block", "hammer", "hook", "lid", "nail", "mug", "cup")},
+    "pick.pot": pick_pot,
+    **{f"move.{k}": move(k) for k in ("hammer", "nail", "mug", "cup", "hook", "empty")},
+    "move.pot": move_pot,
+    "place.cube.lid": place_cube_on_lid,
+    "place.hammer.box": place_in_box("hammer"),
+    "place.lid.box": place_in_box("lid"),
+    "regrasp.hammer": regrasp_hammer,
+}
+
+
+def scenario_for(model: str) -> ScenarioSampler:
+    try:
+        return SCENARIOS[model]
+    except KeyError:
+        known = ", ".join(sorted(SCENARIOS))
+        raise KeyError(f"no scene sampler for skill model {model!r} (have: {known})") from None

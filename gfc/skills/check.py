@@ -1,0 +1,136 @@
+"""``gfc skills check``: does a trained skill model propose actions that work, alone, in the simulator?
+
+For fresh scenes of the model's scenario (the same sampler as its data collection), the set-up
+runs, the model samples the target stage's action conditioned on the pre nodes the simulator
+reports (observed tokens given clean), and the stage executes. The same seeds are then run with
+uniformly random actions, so both rates come from the same scenes. Two-handed stages (the pot)
+are sampled hand by hand: the second hand's model is also given the object's effect node that
+the first hand's sample implies, the chain rule with the models' own conditionals.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from gfc.data.collect import (
+    Attempt,
+    Source,
+    attempts_for,
+    pre_nodes,
+    robot_frame_map,
+    role_entity,
+    run_attempt,
+)
+from gfc.data.scenarios import Scenario, State
+from gfc.diffusion.denoiser import StackedDenoiser
+from gfc.diffusion.training import sample_model
+from gfc.geometry import FloatArray
+from gfc.pool import Pool
+from gfc.skills.signatures import skill_spec
+
+SAMPLING_STEPS = 50
+_loaded: dict[tuple[str, str], StackedDenoiser] = {}  # per process: a pool worker loads each model once
+
+
+def load_model(store: str, ref: str) -> StackedDenoiser:
+    key = (store, ref)
+    if key not in _loaded:
+        from skill_store import SkillStore
+
+        torch.set_num_threads(1)  # one simulator process per core already
+        _loaded[key] = SkillStore(store).load(ref).eval()
+    return _loaded[key]
+
+
+def sample_stage(
+    model: StackedDenoiser, scenario: Scenario, before: State, rng: np.random.Generator
+) -> list[FloatArray]:
+    """Actions for the scenario's target steps, each conditioned on its observed pre nodes (and,
+    after the first hand, on the shared object's effect that the first sample implies)."""
+    plan = scenario.plan
+    layout = model.layouts[0]
+    generator = torch.Generator().manual_seed(int(rng.integers(2**31)))
+    object_effect_world: FloatArray | None = None
+    actions: list[FloatArray] = []
+    for step in plan.skeleton[scenario.n_setup :]:
+        spec = skill_spec(step.skill)
+        tokens = spec.tokens(with_object=step.object is not None)
+        offsets = np.cumsum([0, *(t.dim for t in tokens)])
+        values = torch.zeros(layout.total_dim)
+        given = torch.zeros(len(tokens), dtype=torch.bool)
+        pre = pre_nodes(plan, step, before)
+        values[: len(pre)] = torch.as_tensor(pre, dtype=torch.float32)
+        given[[i for i, t in enumerate(tokens) if t.phase == "pre"]] = True
+        a, b = robot_frame_map(plan, step.robot)
+        effect_object = next(
+            (i for i, t in enumerate(tokens) if t.phase == "effect" and t.role == "object"), None
+        )
+        if object_effect_world is not None and effect_object is not None:
+            local = a @ object_effect_world + b
+            values[offsets[effect_object] : offsets[effect_object + 1]] = torch.as_tensor(
+                local, dtype=torch.float32
+            )
+            given[effect_object] = True
+        sample = sample_model(model, 1, SAMPLING_STEPS, generator=generator, given=(given, values))[0]
+        k = next(i for i, t in enumerate(tokens) if t.phase == "action")
+        actions.append(sample[offsets[k] : offsets[k + 1]].double().numpy())
+        if effect_object is not None and object_effect_world is None:
+            local = sample[offsets[effect_object] : offsets[effect_object + 1]].double().numpy()
+            object_effect_world = a.T @ (local - b)  # A is orthogonal: back to the world frame
+        assert role_entity(step, "robot") == step.robot
+    return actions
+
+
+def model_source(store: str, ref: str) -> Any:
+    def draw(scenario: Scenario, before: State, rng: np.random.Generator) -> list[FloatArray]:
+        return sample_stage(load_model(store, ref), scenario, before, rng)
+
+    return draw
+
+
+@dataclass(frozen=True)
+class SourceResult:
+    trials: int  # attempts whose set-up worked
+    successes: int
+    failures: dict[str, int]
+    setup_failures: int
+
+    @property
+    def hit_rate(self) -> float:
+        return self.successes / self.trials if self.trials else 0.0
+
+
+def tally(results: list[dict[str, Any]]) -> SourceResult:
+    statuses = Counter(r["status"] for r in results)
+    failures = Counter(str(r["failure_type"]) for r in results if r["status"] == "failure")
+    tried = len(results) - statuses["setup"]
+    return SourceResult(tried, statuses["success"], dict(failures), statuses["setup"])
+
+
+def run_source(
+    model: str, seeds: range, source: Source, pool: Pool, store: str | None = None, ref: str | None = None
+) -> SourceResult:
+    attempts: list[Attempt] = attempts_for(model, seeds, source, store=store, ref=ref)
+    return tally(pool.map(run_attempt, attempts))
+
+
+def check_report(
+    model: str, version: int, trained: SourceResult, random: SourceResult, data_rate: float | None
+) -> dict[str, Any]:
+    return {
+        "model": model,
+        "version": version,
+        "trials": trained.trials,
+        "hit_rate": trained.hit_rate,
+        "random_hit_rate": random.hit_rate,
+        "random_trials": random.trials,
+        "data_success_rate": data_rate,
+        "failures": trained.failures,
+        "random_failures": random.failures,
+        "setup_failures": trained.setup_failures,
+    }

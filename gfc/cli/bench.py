@@ -138,7 +138,7 @@ def tasks(
     import torch
     from rich.table import Table
 
-    from gfc.bench.methods import METHODS, MissingModelsError, PlanSettings
+    from gfc.bench.methods import METHODS, MissingModelsError, PlanSettings, needs_models
     from gfc.bench.report import plot_top1, render_key_frames, results_markdown
     from gfc.bench.tasks import random_weights_library, run_benchmark, summarise
     from gfc.planner.library import SkillLibrary
@@ -149,8 +149,10 @@ def tasks(
     torch.set_num_threads(threads)
     names = _names(task_names) or list(ALL_TASKS)
     methods = _names(method_names) or list(METHODS)
-    library: SkillLibrary
-    if random_weights:
+    library: SkillLibrary | None
+    if not any(needs_models(m) for m in methods):
+        library, source = None, "skill models: none (these methods use none)"
+    elif random_weights:
         library = random_weights_library(names)
         source = "skill models: **random weights** (a plumbing check: these success rates mean nothing)"
     else:

@@ -21,7 +21,9 @@ class ErrorResponse(BaseModel):
 class StepParameters(BaseModel):
     step: int
     skill: str
-    model: str
+    model: str | None = Field(
+        None, description="skill model sampled (none for a terminal skill such as strike)"
+    )
     action: list[float] = Field(description="raw action vector (rotation columns orthonormalised)")
     action_named: dict[str, float] | None = None
     action_pose: list[float] | None = Field(None, description="9-D pose actions as [x, y, z, qx, qy, qz, qw]")

@@ -24,7 +24,9 @@ class Issue(_Model):
 class StepParameters(_Model):
     step: int
     skill: str
-    model: str
+    model: str | None = Field(
+        None, description="skill model sampled (none for a terminal skill such as strike)"
+    )
     action: list[float] = Field(description="raw action vector")
     action_named: dict[str, float] | None = None
     action_pose: list[float] | None = Field(None, description="pose actions as [x, y, z, qx, qy, qz, qw]")

@@ -256,8 +256,9 @@ def move_pot(rng: Rng) -> Scenario:
     """Both arms lift the pot, then carry it rigidly: turned about the vertical through its centre
     and shifted a little; each hand's target follows from the pot's and the hands' real poses."""
     skeleton: list[dict[str, object]] = [
-        *({"skill": "pick", "robot": r, "object": "pot", "group": "grasp"} for r in ("left", "right")),
-        *({"skill": "move", "robot": r, "object": "pot", "group": "turn"} for r in ("left", "right")),
+        {"skill": skill, "robot": r, "object": "pot", "group": group}
+        for skill, group in (("pick", "grasp"), ("move", "turn"))
+        for r in ("left", "right")
     ]
 
     def propose(r: Rng, state: State) -> list[FloatArray]:
@@ -357,7 +358,11 @@ def place_in_box(kind: str) -> ScenarioSampler:
             if kind == "lid":
                 position = [r.normal(0.0, 0.006), r.normal(0.0, 0.006), BOX_RIM + 0.003]
                 return [pose9(position, rot_z(flip + r.normal(0.0, 0.04)))]
-            position = [r.normal(0.0, 0.01), r.uniform(-0.03, 0.03), BOX_FLOOR + 0.004 + r.normal(0.0, 0.002)]
+            floor = BOX_FLOOR + 0.004 + r.normal(0.0, 0.002)
+            if kind == "cube":  # anywhere on the floor, any heading
+                position = [r.uniform(-0.1, 0.1), r.uniform(-0.06, 0.06), floor]
+                return [pose9(position, rot_z(r.uniform(-math.pi, math.pi)))]
+            position = [r.normal(0.0, 0.01), r.uniform(-0.03, 0.03), floor]
             return [pose9(position, rot_z(flip + r.normal(0.0, 0.08)))]
 
         return _place_scenario(robot, objects, "box", grasp_proposal(kind, rng), propose, _box_uniform)
@@ -405,11 +410,12 @@ def regrasp_hammer(rng: Rng) -> Scenario:
 SCENARIOS: dict[str, ScenarioSampler] = {
     **{f"pick.{k}": pick(k) for k in ("cube", "block", "hammer", "hook", "lid", "nail", "mug", "cup")},
     "pick.pot": pick_pot,
-    **{f"move.{k}": move(k) for k in ("hammer", "nail", "mug", "cup", "hook", "empty")},
+    **{f"move.{k}": move(k) for k in ("cube", "hammer", "nail", "mug", "cup", "hook", "empty")},
     "move.pot": move_pot,
     "place.cube.lid": place_cube_on_lid,
     "place.hammer.box": place_in_box("hammer"),
     "place.lid.box": place_in_box("lid"),
+    "place.cube.box": place_in_box("cube"),
     "regrasp.hammer": regrasp_hammer,
 }
 

@@ -133,6 +133,7 @@ class _Compiler:
         self.temporal: list[TemporalFactor] = []
         self.spatial: list[SpatialFactor] = []
         self.stages: list[tuple[int, ...]] = []
+        self.terminal: list[tuple[int, str]] = []  # action-less steps without a learned factor
         self.robots = {r.name: r for r in plan.scene.robots}
         self.objects = {o.name: o for o in plan.scene.objects}
         self.state = _State()
@@ -378,6 +379,13 @@ class _Compiler:
 
         for i, step, spec in valid:
             with_object = step.object is not None
+            if spec.action_dim == 0 and not spec.writes:
+                # A terminal skill (strike, pour) has nothing to sample and changes no node: its
+                # precondition is a geometric test, which a plan states as a constraint (the hammer
+                # head aligned over the nail) rather than a learned factor.
+                self.apply_holding(step, spec)
+                self.terminal.append((i, spec.name))
+                continue
             tokens: list[FactorToken] = []
             action_id: int | None = None
             for token in spec.tokens(with_object=with_object):
@@ -565,6 +573,7 @@ class _Compiler:
             temporal=tuple(self.temporal),
             spatial=tuple(self.spatial),
             stages=tuple(self.stages),
+            terminal=tuple(self.terminal),
         )
 
 

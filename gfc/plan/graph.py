@@ -89,6 +89,7 @@ class CompiledPlan:
     temporal: tuple[TemporalFactor, ...]
     spatial: tuple[SpatialFactor, ...]
     stages: tuple[tuple[int, ...], ...]  # steps that run together, in execution order
+    terminal: tuple[tuple[int, str], ...] = ()  # (step, skill) of action-less steps with no factor
 
     @property
     def known(self) -> tuple[NodeVersion, ...]:

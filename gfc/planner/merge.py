@@ -36,10 +36,12 @@ def merge_plans(plans: list[CompiledPlan]) -> tuple[CompiledPlan, list[PlanColum
     temporal: list[TemporalFactor] = []
     spatial: list[SpatialFactor] = []
     stages: list[tuple[int, ...]] = []
+    terminal: list[tuple[int, str]] = []
     node_base: list[int] = []
     action_base: list[int] = []
     for plan in plans:
-        n0, a0, s0 = len(nodes), len(actions), len(temporal)
+        n0, a0 = len(nodes), len(actions)
+        s0 = sum(len(stage) for stage in stages)  # steps so far (terminal steps have no factor)
         node_base.append(n0)
         action_base.append(a0)
         nodes += [replace(n, id=n.id + n0) for n in plan.nodes]
@@ -61,7 +63,10 @@ def merge_plans(plans: list[CompiledPlan]) -> tuple[CompiledPlan, list[PlanColum
             for sf in plan.spatial
         ]
         stages += [tuple(i + s0 for i in stage) for stage in plan.stages]
-    merged = CompiledPlan(tuple(nodes), tuple(actions), tuple(temporal), tuple(spatial), tuple(stages))
+        terminal += [(i + s0, skill) for i, skill in plan.terminal]
+    merged = CompiledPlan(
+        tuple(nodes), tuple(actions), tuple(temporal), tuple(spatial), tuple(stages), tuple(terminal)
+    )
     merged_layout = VariableLayout.of(merged)
     columns = []
     for plan, n0, a0 in zip(plans, node_base, action_base, strict=True):

@@ -61,6 +61,8 @@ def describe_candidate(
             if var.dim == 9:
                 entry["action_pose"] = [float(v) for v in pose9_to_pose7(vec)]
         steps.append(entry)
+    steps += [{"step": i, "skill": skill, "model": None, "action": []} for i, skill in plan.terminal]
+    steps.sort(key=lambda e: int(e["step"]))
     nodes: dict[str, Any] = {}
     for node in plan.free:
         o = layout.node_offset[node.id]

@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 from gfc.data.collect import (
+    ActionSource,
     Attempt,
     Source,
     attempts_for,
@@ -86,7 +87,7 @@ def sample_stage(
     return actions
 
 
-def model_source(store: str, ref: str) -> Any:
+def model_source(store: str, ref: str) -> ActionSource:
     def draw(scenario: Scenario, before: State, rng: np.random.Generator) -> list[FloatArray]:
         return sample_stage(load_model(store, ref), scenario, before, rng)
 

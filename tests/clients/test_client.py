@@ -121,7 +121,12 @@ def test_verify_arguments_are_checked_before_sending() -> None:
 def test_skills_health_and_metrics(service: Service) -> None:
     with Client(service.url) as client:
         skills = client.list_skills()
-        assert {s.name for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer.box"}
+        assert {s.name for s in skills} == {
+            "pick.hammer",
+            "move.hammer",
+            "regrasp.hammer",
+            "place.hammer.box",
+        }
         pick = client.get_skill("pick.hammer")
         assert pick.name == "pick.hammer" and pick.versions[0].ready
         with pytest.raises(NotFoundError):

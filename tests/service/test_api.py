@@ -83,7 +83,7 @@ def test_oversized_body_is_413(client: httpx.Client) -> None:
 def test_skills_and_readiness(client: httpx.Client) -> None:
     skills = client.get("/skills").json()
     names = {s["name"] for s in skills}
-    assert {"pick.hammer", "strike.hammer.nail"} <= names
+    assert {"pick.hammer", "move.nail"} <= names and "strike.hammer.nail" not in names  # terminal: no model
     assert all(v["ready"] for s in skills for v in s["versions"])
     assert client.get("/skills/pick.hammer").json()["name"] == "pick.hammer"
     missing = client.get("/skills/pick.anvil")

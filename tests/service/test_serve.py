@@ -83,7 +83,12 @@ def test_serve_plans_with_skills_from_the_store(tmp_path: Path) -> None:
     with gfc_serve(tmp_path / "skills", tmp_path / "var") as url:
         assert httpx.get(f"{url}/health/ready", timeout=60).status_code == 200
         skills = httpx.get(f"{url}/skills", timeout=60).json()
-        assert {s["name"] for s in skills} == {"pick.hammer", "move.hammer", "regrasp.hammer", "place.hammer.box"}
+        assert {s["name"] for s in skills} == {
+            "pick.hammer",
+            "move.hammer",
+            "regrasp.hammer",
+            "place.hammer.box",
+        }
         response = httpx.post(f"{url}/plan", json=plan, timeout=120)
         assert response.status_code == 200, response.text
         assert response.json()["models"]["pick.hammer"] == "pick.hammer@1"

@@ -262,3 +262,44 @@ def alias_command(
         out.print(f"{name}@{alias} -> {name}@{entry.version}", highlight=False)
     except SkillStoreError as error:
         raise _fail(error) from None
+
+
+@skills_app.command("check")
+def check_command(
+    name: Annotated[str, typer.Argument(help="Skill model reference, e.g. pick.hammer or pick.hammer@3.")],
+    n: Annotated[int, typer.Option("-n", min=1, help="Fresh scenes to try.")] = 50,
+    json_file: Annotated[str | None, typer.Option("--json", help="Write the report as JSON here.")] = None,
+    processes: Annotated[int, typer.Option(min=1, help="Simulator processes.")] = 2,
+    store: Store = DEFAULT_STORE,
+) -> None:
+    """Execute the model's sampled actions alone in the simulator on N fresh scenes.
+
+    Prints the hit rate, the hit rate of uniform random actions on the same scenes and the
+    success rate of the data the model was trained on. JSON keys: hit_rate, random_hit_rate,
+    trials, data_success_rate, failures, random_failures.
+
+    Example: gfc skills check pick.hammer -n 50 --json pick.hammer.json
+    """
+    from gfc.data.scenarios import SCENARIOS
+    from gfc.pool import LocalPool
+    from gfc.skills.check import check_model
+
+    try:
+        ref = parse_ref(name)
+    except SkillStoreError as error:
+        raise _fail(error) from None
+    if ref.name not in SCENARIOS:
+        err.print(f"error: no scene sampler for {ref.name!r}; have: {', '.join(sorted(SCENARIOS))}")
+        raise typer.Exit(2)
+    try:
+        report = check_model(ref.name, n, store, LocalPool(processes), ref=name)
+    except SkillStoreError as error:
+        raise _fail(error) from None
+    out.print(
+        f"{ref.name}@{report['version']}: hit rate {report['hit_rate']:.0%} over {report['trials']} scenes, "
+        f"uniform random {report['random_hit_rate']:.0%}, data {report['data_success_rate']}",
+        highlight=False,
+    )
+    if json_file is not None:
+        with open(json_file, "w") as fh:
+            json.dump(report, fh, indent=2)

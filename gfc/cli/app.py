@@ -6,6 +6,7 @@ import typer
 
 from gfc.cli.bench import bench_app
 from gfc.cli.collect import register_collect_command
+from gfc.cli.library import library_app
 from gfc.cli.plan_commands import register_plan_commands
 from gfc.cli.remote import register_remote_commands
 from gfc.cli.serve import register_serve_command
@@ -37,6 +38,7 @@ register_sim_commands(app)
 app.add_typer(sim_app, name="sim")
 app.add_typer(bench_app, name="bench")
 app.add_typer(skills_app, name="skills")
+app.add_typer(library_app, name="library")
 
 
 def main() -> None:

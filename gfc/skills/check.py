@@ -135,3 +135,37 @@ def check_report(
         "random_failures": random.failures,
         "setup_failures": trained.setup_failures,
     }
+
+
+CHECK_SEED = 10_000_000  # check scenes are drawn far from the collection's seeds (0, 1, 2, ...)
+
+
+def check_model(model: str, n: int, store: str, pool: Pool, ref: str | None = None) -> dict[str, Any]:
+    """The hit rate of ``ref`` (default: the model's current version) and of uniform random
+    actions on the same ``n`` fresh scenes, with the data's own success rate for reference."""
+    from skill_store import SkillStore
+
+    skills = SkillStore(store)
+    resolved = skills.resolve(ref or model)
+    manifest = skills.manifest(resolved)
+    pinned = f"{resolved.name}@{resolved.version}"
+    seeds = range(CHECK_SEED, CHECK_SEED + n)
+    trained = run_source(model, seeds, "model", pool, store=store, ref=pinned)
+    random = run_source(model, seeds, "uniform", pool)
+    data_rate = manifest.training.metrics.get("data_success_rate")
+    return check_report(model, resolved.version, trained, random, data_rate)
+
+
+def markdown_table(reports: list[dict[str, Any]]) -> str:
+    lines = [
+        "| skill model | version | trials | hit rate (model) | hit rate (uniform random) | data success rate | model failures by type |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in reports:
+        data = "n/a" if r["data_success_rate"] is None else f"{r['data_success_rate']:.0%}"
+        failures = ", ".join(f"type {k}: {v}" for k, v in sorted(r["failures"].items())) or "none"
+        lines.append(
+            f"| {r['model']} | {r['version']} | {r['trials']} | **{r['hit_rate']:.0%}** | "
+            f"{r['random_hit_rate']:.0%} | {data} | {failures} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -132,8 +132,8 @@ def grasp_proposal(kind: str, rng: Rng) -> FloatArray:
     if kind == "hammer":  # anywhere along the handle, fingers across it
         position = [rng.uniform(-0.11, 0.05), 0.0, 0.018]
         return pose9(np.asarray(position) + jitter, rot_z(flip + rng.normal(0.0, 0.15)) @ DOWN)
-    if kind == "hook":  # along the shaft, away from the hook
-        position = [rng.uniform(-0.17, 0.05), 0.0, 0.018]
+    if kind == "hook":  # along the shaft (at y = -4.5 cm in the hook frame), away from the hook
+        position = [rng.uniform(-0.17, 0.05), -0.045, 0.018]
         return pose9(np.asarray(position) + jitter, rot_z(flip + rng.normal(0.0, 0.15)) @ DOWN)
     if kind == "lid":  # the knob from above
         knob_z = OBJECT_KINDS["lid"].frames["knob"][2]
@@ -406,6 +406,71 @@ def regrasp_hammer(rng: Rng) -> Scenario:
     return Scenario(make_plan(objects, skeleton), setup, 1, propose, box_uniform("hammer"))
 
 
+# ---------------------------------------------------------------------------------- push, pull
+HOOK_TIP = OBJECT_KINDS["hook"].frames["tip"]
+HOOK_BAR_X = HOOK_TIP[0]  # the hook's short bar sits at the tip's x, across the shaft's end
+PULL_BLOCK_IN_TOOL = (HOOK_BAR_X - 0.05, 0.01)  # the block just inside the bar, clear of the shaft
+PUSH_BLOCK_IN_TOOL = (HOOK_BAR_X + 0.05, 0.01)  # the block just beyond the bar's outer face
+
+
+def stroke_action(rng: Rng, block: FloatArray, away: float, block_in_tool: tuple[float, float]) -> FloatArray:
+    """(x, y, r, theta): the tool's tip in the block's frame, the stroke length, and the tool's
+    heading relative to the block's, for a tool pointing ``away`` (world yaw) from the robot with
+    the block at ``block_in_tool`` in the tool frame."""
+    tool_yaw = away + rng.normal(0.0, 0.25)
+    tool = rot_z(tool_yaw)
+    offset = np.asarray(block_in_tool) + rng.normal(0.0, 0.006, size=2)
+    origin = block[:3, 3] - tool @ np.array([offset[0], offset[1], 0.0])
+    tip_world = origin + tool @ np.array([HOOK_TIP[0], HOOK_TIP[1], 0.0])
+    tip = (np.linalg.inv(block) @ np.array([*tip_world, 1.0]))[:2]
+    block_yaw = math.atan2(block[1, 0], block[0, 0])
+    theta = math.remainder(tool_yaw - block_yaw, 2 * math.pi)
+    return np.array([tip[0], tip[1], rng.uniform(0.08, 0.25), theta])
+
+
+def stroke_uniform(rng: Rng, _state: State) -> list[FloatArray]:
+    xy = rng.uniform(-0.25, 0.25, size=2)
+    return [np.array([xy[0], xy[1], rng.uniform(0.01, 0.3), rng.uniform(-math.pi, math.pi)])]
+
+
+def stroke(skill: str) -> ScenarioSampler:
+    """The robot picks the hook, then pulls a block towards its base (``pull``: the block
+    starts far out) or pushes it away (``push``: the block starts within reach)."""
+
+    def sample(rng: Rng) -> Scenario:
+        robot = str(rng.choice(["left", "right"]))
+        bx, by, _ = BASES[robot]
+        outward = 1.0 if by > 0 else -1.0
+        hook_at = (bx + rng.uniform(0.4, 0.48), by - outward * rng.uniform(0.0, 0.08))
+        near, far = (0.65, 0.78) if skill == "push" else (0.62, 0.75)
+        block_at = (bx + rng.uniform(near, far), by + outward * rng.uniform(0.1, 0.25))
+        objects: list[dict[str, object]] = [
+            {"name": "obj", "kind": "hook", "pose": pose7(*hook_at, TABLE_Z, rng.uniform(-0.3, 0.3))},
+            {
+                "name": "block",
+                "kind": "block",
+                "pose": pose7(*block_at, TABLE_Z, rng.uniform(-math.pi, math.pi)),
+            },
+        ]
+        skeleton: list[dict[str, object]] = [
+            {"skill": "pick", "robot": robot, "object": "obj"},
+            {"skill": skill, "robot": robot, "object": "obj", "target": "block"},
+        ]
+
+        def propose(r: Rng, state: State) -> list[FloatArray]:
+            block = pose7_to_matrix(state["poses"]["block"])
+            away = math.atan2(block[1, 3] - by, block[0, 3] - bx)  # from the base out to the block
+            inside = PUSH_BLOCK_IN_TOOL if skill == "push" else PULL_BLOCK_IN_TOOL
+            return [stroke_action(r, block, away, inside)]
+
+        grasp = pose9(
+            [rng.uniform(-0.15, -0.05), -0.045, 0.018], rot_z(float(rng.choice([0.0, math.pi]))) @ DOWN
+        )
+        return Scenario(make_plan(objects, skeleton), [grasp], 1, propose, stroke_uniform)
+
+    return sample
+
+
 # ---------------------------------------------------------------------------------- registry
 SCENARIOS: dict[str, ScenarioSampler] = {
     **{f"pick.{k}": pick(k) for k in ("cube", "block", "hammer", "hook", "lid", "nail", "mug", "cup")},
@@ -417,6 +482,8 @@ SCENARIOS: dict[str, ScenarioSampler] = {
     "place.lid.box": place_in_box("lid"),
     "place.cube.box": place_in_box("cube"),
     "regrasp.hammer": regrasp_hammer,
+    "push.hook.block": stroke("push"),
+    "pull.hook.block": stroke("pull"),
 }
 
 

@@ -41,6 +41,11 @@ DEFAULT_MODELS: tuple[str, ...] = (
     "place.lid.box",
     "place.hammer.box",
     "regrasp.hammer",
+    # The single-arm tasks (hook reach, rearrangement push, packing).
+    "pick.block",
+    "pick.hook",
+    "pull.hook.block",
+    "push.hook.block",
 )
 
 

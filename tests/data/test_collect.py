@@ -9,20 +9,42 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gfc.data.collect import Prior, draw_action, pick_scenario
+from gfc.data.collect import Attempt, Prior, prior_source, run_attempt, world_state
 from gfc.data.dataset import load_dataset, read_index
-from gfc.geometry import pose9_to_matrix
+from gfc.data.runner import model_layout
+from gfc.data.scenarios import SCENARIOS
 
 
-def test_prior_stays_near_the_proposal_except_for_its_uniform_share() -> None:
+def test_the_prior_mixes_heuristic_and_uniform_actions() -> None:
     rng = np.random.default_rng(0)
-    scenario = pick_scenario("cube")(rng)
-    actions = np.array([draw_action(scenario.proposal, Prior(uniform_share=0.0), rng) for _ in range(200)])
-    assert np.abs(actions[:, :3] - scenario.proposal[:3]).max() < 0.08  # 5 sigma of 1.5 cm
-    rotations = [pose9_to_matrix(a)[:3, :3] for a in actions]
-    assert all(np.allclose(r @ r.T, np.eye(3), atol=1e-9) for r in rotations)
-    wide = np.array([draw_action(scenario.proposal, Prior(uniform_share=1.0), rng) for _ in range(200)])
-    assert np.abs(wide[:, :2]).max() > 0.08  # uniform draws reach well beyond the noise
+    scenario = SCENARIOS["pick.cube"](rng)
+    near = prior_source(Prior(uniform_share=0.0))
+    wide = prior_source(Prior(uniform_share=1.0))
+    state = world_state({}, {})
+    heuristic = np.array([near(scenario, state, rng)[0] for _ in range(200)])
+    uniform = np.array([wide(scenario, state, rng)[0] for _ in range(200)])
+    assert np.abs(heuristic[:, :2]).max() < 0.04  # a top-down grasp near the cube's centre
+    assert np.abs(uniform[:, :2]).max() > 0.03  # uniform draws reach the whole box around it
+    downward = np.cross(heuristic[:, 3:6], heuristic[:, 6:9])[:, 2]
+    assert (downward < -0.99).all()
+    assert (np.cross(uniform[:, 3:6], uniform[:, 6:9])[:, 2] > 0).any()  # any rotation
+
+
+@pytest.mark.slow
+def test_an_attempt_with_a_setup_reports_rows_of_the_target_step_only() -> None:
+    result = run_attempt(Attempt("place.hammer.box", seed=1, prior=Prior(uniform_share=0.0)))
+    assert result["status"] in {"success", "failure", "setup"}
+    results = [result] + [
+        run_attempt(Attempt("place.hammer.box", seed=s, prior=Prior(uniform_share=0.0))) for s in range(2, 5)
+    ]
+    rows = [row for r in results if r["status"] == "success" for row in r["rows"]]
+    assert rows, [r.get("reason") for r in results]
+    layout = model_layout("place.hammer.box")
+    for row in rows:
+        assert len(row) == layout.total_dim
+        pre_gripper, effect_gripper = row[9], row[10 + 9 + 9 + 9 + 9]
+        assert pre_gripper < 0.07  # before the place the hand held the hammer (set-up pick)
+        assert effect_gripper > 0.07  # and let go of it after
 
 
 def collect(out: Path, n: int) -> subprocess.CompletedProcess[str]:
@@ -54,4 +76,4 @@ def test_collect_picks_and_resume(tmp_path: Path) -> None:
         [sys.executable, "-m", "gfc.cli", "collect", "pick", "--object", "box", "-n", "1", "--out", str(tmp_path / "x")],
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
-    assert bad.returncode == 2 and "not a graspable" in bad.stdout
+    assert bad.returncode == 2 and "no scene sampler" in bad.stdout

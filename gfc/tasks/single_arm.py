@@ -1,0 +1,103 @@
+"""What the single-arm tasks (Hook Reach, Rearrangement Push, Constrained Packing; STAP/GSC style)
+share: the acting arm, the grasps, the hook's rest on a rack and the slots in a box.
+
+Every single-arm task is done by the right arm; the left arm stays at home (it is still in the
+scene, as an obstacle, because the simulator always builds both Pandas).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from gfc.geometry import FloatArray
+from gfc.kinds import object_kind
+from gfc.tasks.base import grasp9, rot_z
+from gfc.tasks.boxes import FLOOR
+
+ROBOT = "right"
+
+# The hook is held on its shaft (the shaft's centre line is at y = -0.045 in the hook frame), from
+# above, 0.285 m behind the tip frame: far enough back that the hand stays clear of what the tip
+# works on (the block; the rack's bar when pushing under it).
+HOOK_GRASP = (-0.1, -0.045, 0.02)
+BLOCK_GRASP_Z = 0.025  # from above, at the block's centre height
+RACK_TOP = 2 * object_kind("rack").half_extents[2]  # the bar's top face, 0.12 m
+
+# The hook lying on the rack's bar (rack frame): shaft along the bar (the hook turned -90 degrees
+# in the rack frame), the shaft's 3 cm fully on the 10 cm bar (rack x from -0.05 to -0.02) and
+# the hook's centre of mass (0.02 m off the shaft towards the hook end) over it at rack x = -0.01;
+# the short hook part overhangs the bar's far edge by 2 cm, which it can since the mass is on the bar.
+HOOK_ON_RACK = (0.01, 0.0, RACK_TOP + 0.003)
+HOOK_ON_RACK_YAW = -math.pi / 2
+
+# Pull and push (x, y, r, theta) in the block's frame: the tip frame 5 cm beyond the block's
+# centre (pull: on its far side, +x) or short of it (push: its near side, -x), 3 cm to its +y side, so that the hook's short part (x from
+# 0.17 to 0.2 in the hook frame) meets the block's face with 1 cm to spare and the shaft passes
+# 2.5 cm beside it; theta = 0 keeps the hook's face parallel to the block's.
+TIP_BEHIND = 0.05
+TIP_SIDE = 0.03
+TIP_GAP = 0.01  # m the block travels less than the hand: the gap closed before contact
+
+# Blocks stand in a box with their y axis along the box's x axis (turned 90 degrees): the fingers
+# close along the block's y axis, so they open along the box's long axis, where the slots leave
+# room for them (columns 14 cm apart), never towards a neighbour 6 cm away in the same column.
+BLOCK_IN_BOX_YAW = math.pi / 2
+BOX_COLUMNS = (0.07, -0.07)  # the far column (box +x) first: the hand never reaches over a placed block
+BOX_ROWS_3 = (-0.06, 0.0, 0.06)  # 1 cm between neighbours; the outer ones 5 mm from the wall
+BOX_ROWS_2 = (-0.045, 0.045)
+# Centres of two placed blocks are at least this far apart: 5 cm blocks side by side do not touch.
+MIN_BLOCK_SEPARATION = 0.055
+
+
+def hook_grasp() -> FloatArray:
+    return grasp9(HOOK_GRASP)
+
+
+def block_grasp() -> FloatArray:
+    return grasp9([0.0, 0.0, BLOCK_GRASP_Z])
+
+
+def block_in_box(x: float, y: float) -> FloatArray:
+    """The place action of a block into a box slot (block pose in the box frame)."""
+    return grasp9([x, y, FLOOR + 0.003], rot_z(BLOCK_IN_BOX_YAW))
+
+
+def hook_on_rack() -> FloatArray:
+    """The place action that lays the hook on the rack's bar (hook pose in the rack frame)."""
+    return grasp9(HOOK_ON_RACK, rot_z(HOOK_ON_RACK_YAW))
+
+
+def stroke(block_travel: float, push: bool) -> FloatArray:
+    """A pull (tip beyond the block) or a push (tip short of it) that moves the block
+    ``block_travel`` metres along its x axis (-x for a pull, +x for a push)."""
+    x = -TIP_BEHIND if push else TIP_BEHIND
+    return np.array([x, TIP_SIDE, block_travel + TIP_GAP, 0.0])
+
+
+def box_slots(rows: Sequence[Sequence[float]]) -> list[tuple[float, float]]:
+    """Slots (box frame) column by column: ``rows[i]`` are the y values used in column ``i``."""
+    return [(x, y) for x, ys in zip(BOX_COLUMNS, rows, strict=False) for y in ys]
+
+
+def pick(obj: str) -> dict[str, object]:
+    return {"skill": "pick", "robot": ROBOT, "object": obj}
+
+
+def place(obj: str, target: str) -> dict[str, object]:
+    return {"skill": "place", "robot": ROBOT, "object": obj, "target": target}
+
+
+def tool(skill: str, target: str) -> dict[str, object]:
+    return {"skill": skill, "robot": ROBOT, "object": "hook", "target": target}
+
+
+def far_pairs(names: Sequence[str], distance: float = MIN_BLOCK_SEPARATION) -> list[dict[str, object]]:
+    """``far`` between every pair at the end state: the packing's no-collision constraint."""
+    return [
+        {"type": "far", "object": a, "target": b, "distance": distance}
+        for i, a in enumerate(names)
+        for b in names[i + 1 :]
+    ]

@@ -1,5 +1,5 @@
 """Hook Reach (STAP/GSC): a block lies on the table beyond the right arm's reach (0.82-0.87 m
-from its base, where no top-down grasp has an IK solution); the arm picks the hook, drags the
+from its base, where a top-down pick has no IK solution for its pre-grasp); the arm picks the hook, drags the
 block into reach with ``pull``, lays the hook on its rack and picks the block.
 
 - ``hook_reach_t1`` (4 steps): pick hook, pull block, place hook on the rack, pick block.

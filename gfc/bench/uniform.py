@@ -93,6 +93,8 @@ def action_box(plan: PlanRequest, step: Step) -> ActionBox | None:
     elif step.skill == "place":
         assert step.target is not None
         low, high = _kind_box(kinds[step.target], 0.0, PLACE_ABOVE)
+        if kinds[step.target] == "rack":  # things go in front of and beside the rack, not on it
+            low, high = (low[0] - 0.2, low[1] - 0.2, low[2]), (high[0] + 0.2, high[1] + 0.2, high[2])
     else:  # move: the end effector anywhere in front of the robot
         low, high = WORKSPACE
     return ActionBox(low, high, pose=True)

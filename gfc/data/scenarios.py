@@ -359,7 +359,7 @@ def place_in_box(kind: str) -> ScenarioSampler:
                 position = [r.normal(0.0, 0.006), r.normal(0.0, 0.006), BOX_RIM + 0.003]
                 return [pose9(position, rot_z(flip + r.normal(0.0, 0.04)))]
             floor = BOX_FLOOR + 0.004 + r.normal(0.0, 0.002)
-            if kind == "cube":  # anywhere on the floor, any heading
+            if kind in ("cube", "block"):  # anywhere on the floor, any heading
                 position = [r.uniform(-0.1, 0.1), r.uniform(-0.06, 0.06), floor]
                 return [pose9(position, rot_z(r.uniform(-math.pi, math.pi)))]
             position = [r.normal(0.0, 0.01), r.uniform(-0.03, 0.03), floor]
@@ -368,6 +368,53 @@ def place_in_box(kind: str) -> ScenarioSampler:
         return _place_scenario(robot, objects, "box", grasp_proposal(kind, rng), propose, _box_uniform)
 
     return sample
+
+
+RACK_TOP = 2 * OBJECT_KINDS["rack"].half_extents[2]
+
+
+def _rack_scene(rng: Rng, robot: str, kind: str) -> list[dict[str, object]]:
+    """A fixed rack further out, its bar across the arm's view, and ``kind`` nearer the middle."""
+    (tx, ty), (ox, oy) = side_by_side(rng, robot)
+    rack_yaw = rng.uniform(-0.3, 0.3)
+    return [
+        {"name": "rack", "kind": "rack", "pose": pose7(tx + 0.05, ty, TABLE_Z, rack_yaw), "fixed": True},
+        {"name": "obj", "kind": kind, "pose": pose7(ox, oy, TABLE_Z, rng.uniform(-0.4, 0.4))},
+    ]
+
+
+def _rack_uniform(r: Rng, _state: State) -> list[FloatArray]:
+    half = OBJECT_KINDS["rack"].half_extents
+    return [uniform_pose(r, [-half[0] - 0.2, -half[1], 0.0], [half[0] + 0.2, half[1], RACK_TOP + 0.08])]
+
+
+def place_block_by_rack(rng: Rng) -> Scenario:
+    """Put a block on the table beside the rack (in front of or behind its bar), any heading."""
+    robot = str(rng.choice(["left", "right"]))
+
+    def propose(r: Rng, _state: State) -> list[FloatArray]:
+        x = float(r.choice([-1.0, 1.0])) * r.uniform(0.09, 0.2)
+        position = [x, r.uniform(-0.2, 0.2), 0.004 + r.normal(0.0, 0.002)]
+        return [pose9(position, rot_z(r.uniform(-math.pi, math.pi)))]
+
+    objects = _rack_scene(rng, robot, "block")
+    return _place_scenario(robot, objects, "rack", grasp_proposal("block", rng), propose, _rack_uniform)
+
+
+def place_hook_on_rack(rng: Rng) -> Scenario:
+    """Lay the hook on the rack's bar: its shaft along the bar, either way round, anywhere along
+    it (the shaft's centre line lies 4.5 cm off the hook's origin, so the origin sits beside the
+    bar on the side the hook end points to)."""
+    robot = str(rng.choice(["left", "right"]))
+
+    def propose(r: Rng, _state: State) -> list[FloatArray]:
+        turn = float(r.choice([-math.pi / 2, math.pi / 2]))
+        shaft = rot_z(turn) @ np.array([0.0, -0.045, 0.0])  # the shaft's centre in the rack frame
+        position = [-shaft[0] + r.normal(0.0, 0.005), r.uniform(-0.06, 0.06), RACK_TOP + 0.003]
+        return [pose9(position, rot_z(turn + r.normal(0.0, 0.04)))]
+
+    objects = _rack_scene(rng, robot, "hook")
+    return _place_scenario(robot, objects, "rack", grasp_proposal("hook", rng), propose, _rack_uniform)
 
 
 # ---------------------------------------------------------------------------------- regrasp
@@ -481,6 +528,9 @@ SCENARIOS: dict[str, ScenarioSampler] = {
     "place.hammer.box": place_in_box("hammer"),
     "place.lid.box": place_in_box("lid"),
     "place.cube.box": place_in_box("cube"),
+    "place.block.box": place_in_box("block"),
+    "place.block.rack": place_block_by_rack,
+    "place.hook.rack": place_hook_on_rack,
     "regrasp.hammer": regrasp_hammer,
     "push.hook.block": stroke("push"),
     "pull.hook.block": stroke("pull"),

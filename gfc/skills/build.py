@@ -46,6 +46,9 @@ DEFAULT_MODELS: tuple[str, ...] = (
     "pick.hook",
     "pull.hook.block",
     "push.hook.block",
+    "place.hook.rack",
+    "place.block.rack",
+    "place.block.box",
 )
 
 

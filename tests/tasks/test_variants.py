@@ -7,7 +7,7 @@ import pytest
 
 from gfc.plan.compiler import compile_plan
 from gfc.sim.execute import execute_plan
-from gfc.tasks import ALL_TASKS, TASKS, VARIANTS, sample_task
+from gfc.tasks import ALL_TASKS, SINGLE_ARM, TASKS, VARIANTS, sample_task
 
 STEPS = {
     "hammer_place_interleaved": 8,
@@ -24,7 +24,7 @@ SEEDS = (1, 2)
 def test_variants_are_registered_apart_from_the_papers_tasks() -> None:
     assert set(VARIANTS) == set(STEPS)
     assert not set(VARIANTS) & set(TASKS)
-    assert set(ALL_TASKS) == set(TASKS) | set(VARIANTS)
+    assert set(ALL_TASKS) == set(TASKS) | set(VARIANTS) | set(SINGLE_ARM)
     with pytest.raises(KeyError, match="unknown task"):
         sample_task("hammer_nail_v9", 0)
 
@@ -35,7 +35,8 @@ def test_variant_compiles_with_its_length(task: str) -> None:
     assert instance.task == task
     assert len(instance.plan.skeleton) == STEPS[task]
     assert len(instance.reference_actions) == STEPS[task]
-    assert len(compile_plan(instance.plan).temporal) == STEPS[task]
+    compiled = compile_plan(instance.plan)
+    assert len(compiled.temporal) + len(compiled.terminal) == STEPS[task]  # strike: no factor
 
 
 def test_interleaved_skeleton_is_hammer_place_reordered() -> None:

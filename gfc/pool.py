@@ -62,17 +62,41 @@ class RayPool:
 
 
 class LocalPool:
-    """A process pool; ``spawn`` so no simulator or torch state leaks into the children."""
+    """A process pool; ``spawn`` so no simulator or torch state leaks into the children.
 
-    def __init__(self, processes: int = 2) -> None:
+    By default each ``map`` starts fresh processes (nothing carries over between calls). With
+    ``keep_alive=True`` the processes stay up between calls until ``close()``: a data collection
+    of many shards then pays the few seconds of interpreter and torch start-up once, not per shard.
+    """
+
+    def __init__(self, processes: int = 2, keep_alive: bool = False) -> None:
         if processes < 1:
             raise ValueError(f"a pool needs at least one process, got {processes}")
         self.processes = processes
+        self.keep_alive = keep_alive
+        self._executor: ProcessPoolExecutor | None = None
+
+    def _start(self, workers: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
     def map(self, fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         work = list(items)
         if len(work) <= 1 or self.processes == 1:
             return InlinePool().map(fn, work)
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(self.processes, len(work)), mp_context=context) as pool:
+        if self.keep_alive:
+            if self._executor is None:
+                self._executor = self._start(self.processes)
+            return list(self._executor.map(fn, work))
+        with self._start(min(self.processes, len(work))) as pool:
             return list(pool.map(fn, work))
+
+    def close(self) -> None:
+        if self._executor is not None:
+            self._executor.shutdown()
+            self._executor = None
+
+    def __enter__(self) -> LocalPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -292,7 +292,8 @@ def check_command(
         err.print(f"error: no scene sampler for {ref.name!r}; have: {', '.join(sorted(SCENARIOS))}")
         raise typer.Exit(2)
     try:
-        report = check_model(ref.name, n, store, LocalPool(processes), ref=name)
+        with LocalPool(processes, keep_alive=True) as pool:
+            report = check_model(ref.name, n, store, pool, ref=name)
     except SkillStoreError as error:
         raise _fail(error) from None
     out.print(

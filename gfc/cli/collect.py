@@ -69,7 +69,8 @@ def register_collect_command(app: typer.Typer) -> None:
                 )  # fmt: skip
                 progress.update(task, advance=1)
 
-            index = collect_dataset(plan, out or Path("data") / model, LocalPool(processes), done)
+            with LocalPool(processes, keep_alive=True) as pool:
+                index = collect_dataset(plan, out or Path("data") / model, pool, done)
         console.print(table)
         console.print(
             f"{index.rows} rows in {out or Path('data') / model} (content hash {index.content_hash[:12]})"

@@ -62,10 +62,10 @@ def build(
         console.print(f"[red]error[/]: not in the default library: {', '.join(unknown)}")
         raise typer.Exit(2)
     target = SkillStore(store or _store_option())
-    pool = LocalPool(processes)
+    pool = LocalPool(processes, keep_alive=True)
     began = time.perf_counter()
     builds = []
-    with console.status("building") as status:
+    with pool, console.status("building") as status:
         for i, model in enumerate(models):
 
             def say(m: str, what: str, i: int = i) -> None:
@@ -118,16 +118,16 @@ def check(
 
     console = Console()
     location = store or _store_option()
-    pool = LocalPool(processes)
     reports = []
-    for model in models or DEFAULT_MODELS:
-        with console.status(f"checking {model} on {n} scenes"):
-            reports.append(check_model(model, n, location, pool))
-        r = reports[-1]
-        console.print(
-            f"{model}@{r['version']}: hit rate {r['hit_rate']:.0%} over {r['trials']} "
-            f"(uniform random {r['random_hit_rate']:.0%})"
-        )
+    with LocalPool(processes, keep_alive=True) as pool:
+        for model in models or DEFAULT_MODELS:
+            with console.status(f"checking {model} on {n} scenes"):
+                reports.append(check_model(model, n, location, pool))
+            r = reports[-1]
+            console.print(
+                f"{model}@{r['version']}: hit rate {r['hit_rate']:.0%} over {r['trials']} "
+                f"(uniform random {r['random_hit_rate']:.0%})"
+            )
     table = markdown_table(reports)
     console.print(table)
     if json_out is not None:

@@ -117,31 +117,50 @@ def action_source(attempt: Attempt) -> ActionSource:
     return model_source(attempt.store, attempt.ref)
 
 
+# Worlds kept between attempts of this worker process (see gfc.sim.reuse): building one loads
+# four robot models, a quarter of an attempt's time. Created on first use, in the worker.
+_worlds: Any = None
+
+
+def _world_cache() -> Any:
+    global _worlds
+    if _worlds is None:
+        from gfc.sim.reuse import WorldCache
+
+        _worlds = WorldCache()
+    return _worlds
+
+
 def run_attempt(attempt: Attempt) -> dict[str, Any]:
     """One scenario, executed: ``status`` is ``success`` (with ``rows``), ``failure`` (with the
     type and reason) or ``setup`` (the set-up failed; not the skill's fault)."""
     from gfc.sim.execute import execute_in_world
-    from gfc.sim.world import build_world
+    from gfc.sim.world import entity_poses, gripper_openings
 
     rng = np.random.default_rng(attempt.seed)
     scenario = scenario_for(attempt.model)(rng)
     plan, k = scenario.plan, scenario.n_setup
-    with build_world(plan.scene, scenario.contents) as world:
+    worlds = _world_cache()
+    world = worlds.acquire(plan.scene, scenario.contents)
+    healthy = False
+    try:
         if k:
             setup = execute_in_world(
                 world, stage_plan(plan, slice(0, k)), scenario.setup_actions, attempt.seed
             )
             failed = next((s for s in setup.steps if not s.success), None)
             if failed is not None or len(setup.steps) < k:
+                healthy = True
                 return {"status": SETUP_FAILED, "reason": failed.reason if failed else "set-up incomplete"}
             before = world_state(setup.steps[-1].poses, setup.steps[-1].grippers)
         else:
-            from gfc.sim.world import entity_poses, gripper_openings
-
             before = world_state(entity_poses(world), gripper_openings(world))
         actions = action_source(attempt)(scenario, before, rng)
         target = stage_plan(plan, slice(k, None))
         outcome = execute_in_world(world, target, actions, attempt.seed + 1)
+        healthy = True
+    finally:
+        worlds.release(world, plan.scene, reusable=healthy)
     last = outcome.steps[-1] if outcome.steps else None
     if last is None or not all(s.success for s in outcome.steps):
         failed = next((s for s in outcome.steps if not s.success), last)

@@ -220,7 +220,8 @@ def move_target(rng: Rng, hand: FloatArray) -> FloatArray:
     return pose9(rng.uniform([0.3, -0.3, 0.12], [0.65, 0.3, 0.45]), rotation)
 
 
-MOVE_UNIFORM_BOX = ([0.1, -0.5, -0.05], [0.8, 0.5, 0.6])
+# Anywhere the arm might reach (the Panda reaches 0.855 m from its shoulder, 0.33 m above the base).
+MOVE_UNIFORM_BOX = ([-0.3, -0.9, -0.2], [0.9, 0.9, 1.0])
 
 
 def move_uniform(rng: Rng, _state: State) -> list[FloatArray]:

@@ -417,6 +417,7 @@ class _Compiler:
                 )
             )
             self.apply_holding(step, spec)
+        self.add_closed_chain(valid, before, after)
         stage_index = len(self.snapshots)
         for i in stage:
             self.stage_of_step[i] = stage_index
@@ -425,6 +426,23 @@ class _Compiler:
             self.stage_of_group[group] = stage_index
         self.stages.append(tuple(stage))
         self.snapshots.append(dict(self.state.latest))
+
+    def add_closed_chain(
+        self, valid: list[tuple[int, Step, SkillSpec]], before: dict[str, int], after: dict[str, int]
+    ) -> None:
+        """Two hands moving one object they both hold form a closed chain: their relative pose
+        cannot change (the simulator refuses a group move that would pull them apart). That is
+        physics, not a user's wish, so the compiler adds it as a spatial factor between the two
+        robots' nodes before and after the stage, whatever constraints the plan states."""
+        moves = [step for _, step, _ in valid if step.skill == "move" and step.object is not None]
+        if len(valid) != 2 or len(moves) != 2 or moves[0].object != moves[1].object:
+            return
+        a, b = moves[0].robot, moves[1].robot
+        if a not in after or b not in after:
+            return
+        params = {"weight": 1.0, "tolerance": 0.005, "transform": None}
+        nodes = (before[a], before[b], after[a], after[b])
+        self.spatial.append(SpatialFactor("fixed_transform", "implied", len(self.spatial), nodes, params))
 
     # ------------------------------------------------------------------ spatial factors
     def resolve_ref(self, ref: int | str, loc: str) -> int | None:

@@ -76,7 +76,7 @@ class SpatialFactor:
     """An energy over node versions: a user constraint or a goal predicate."""
 
     type: str
-    source: Literal["constraint", "goal"]
+    source: Literal["constraint", "goal", "implied"]  # implied: physics, e.g. a two-handed grip
     index: int  # position in the request's constraints or goal list
     nodes: tuple[int, ...]
     params: dict[str, Any] = field(default_factory=dict)

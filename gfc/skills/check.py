@@ -11,7 +11,7 @@ the first hand's sample implies, the chain rule with the models' own conditional
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -30,7 +30,12 @@ from gfc.data.collect import (
 from gfc.data.scenarios import Scenario, State
 from gfc.diffusion.denoiser import StackedDenoiser
 from gfc.diffusion.training import sample_model
-from gfc.geometry import FloatArray
+from gfc.geometry import FloatArray, pose7_to_pose9
+from gfc.plan.compiler import compile_plan
+from gfc.plan.graph import CompiledPlan
+from gfc.plan.schema import Options
+from gfc.planner.library import InMemoryLibrary
+from gfc.planner.planner import plan_candidates
 from gfc.pool import Pool
 from gfc.skills.signatures import skill_spec
 
@@ -87,9 +92,72 @@ def sample_stage(
     return actions
 
 
+def stage_graph(scenario: Scenario, before: State) -> CompiledPlan:
+    """The factor graph of the scenario's target stage alone: its temporal factors, their pre
+    nodes known (the state the set-up left, in the world frame), effects and actions free. For a
+    two-handed stage the hands' factors share the object's effect node: composing them is how GFC
+    keeps the hands consistent, with the closed-chain factor the compiler adds for a shared grip."""
+    compiled = compile_plan(scenario.plan)
+    targets = set(range(scenario.n_setup, len(scenario.plan.skeleton)))
+    factors = tuple(f for f in compiled.temporal if f.step in targets)
+    used = {t.node for f in factors for t in f.tokens if t.node is not None}
+    pre = {t.node for f in factors for t in f.tokens if t.phase == "pre" and t.node is not None}
+    nodes = []
+    for n in compiled.nodes:
+        if n.id not in used:
+            continue
+        if n.id in pre:
+            pose = pose7_to_pose9(before["poses"][n.entity])
+            value = [*pose, before["grippers"][n.entity]] if n.entity_type == "robot" else list(pose)
+            nodes.append(replace(n, known=True, value=tuple(float(v) for v in value)))
+        else:
+            nodes.append(replace(n, known=False, value=None))
+    # The planner indexes nodes and actions by id: renumber both densely.
+    node_id = {n.id: i for i, n in enumerate(nodes)}
+    kept = [a for a in compiled.actions if a.step in targets]
+    action_id = {a.id: i for i, a in enumerate(kept)}
+    factors = tuple(
+        replace(
+            f,
+            tokens=tuple(
+                replace(
+                    t,
+                    node=None if t.node is None else node_id[t.node],
+                    action=None if t.action is None else action_id[t.action],
+                )
+                for t in f.tokens
+            ),
+        )
+        for f in factors
+    )
+    implied = tuple(  # physics the compiler adds (two hands on one object), never user constraints
+        replace(sf, index=i, nodes=tuple(node_id[n] for n in sf.nodes))
+        for i, sf in enumerate(x for x in compiled.spatial if x.source == "implied" and set(x.nodes) <= used)
+    )
+    return CompiledPlan(
+        tuple(replace(n, id=node_id[n.id]) for n in nodes),
+        tuple(replace(a, id=action_id[a.id]) for a in kept),
+        factors,
+        implied,
+        (tuple(sorted(targets)),),
+    )
+
+
+def compose_stage(
+    model: StackedDenoiser, name: str, scenario: Scenario, before: State, seed: int
+) -> list[FloatArray]:
+    stage = stage_graph(scenario, before)
+    options = Options(candidates=1, top_k=1, steps=SAMPLING_STEPS, seed=seed)
+    result = plan_candidates(stage, InMemoryLibrary({name: model}), options)
+    return [np.asarray(s["action"], dtype=np.float64) for s in result.candidates[0]["steps"]]
+
+
 def model_source(store: str, ref: str) -> ActionSource:
     def draw(scenario: Scenario, before: State, rng: np.random.Generator) -> list[FloatArray]:
-        return sample_stage(load_model(store, ref), scenario, before, rng)
+        model = load_model(store, ref)
+        if scenario.n_target > 1:
+            return compose_stage(model, ref.split("@")[0], scenario, before, int(rng.integers(2**31)))
+        return sample_stage(model, scenario, before, rng)
 
     return draw
 

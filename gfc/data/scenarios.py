@@ -121,8 +121,10 @@ def box_uniform(kind: str, margin: float = 0.02) -> ActionDraw:
 
 
 # ---------------------------------------------------------------------------------- grasps
-def grasp_proposal(kind: str, rng: Rng) -> FloatArray:
-    """A heuristic grasp of ``kind`` in its object frame, with noise: the broad prior of pick."""
+def grasp_proposal(kind: str, rng: Rng, facing: float | None = None) -> FloatArray:
+    """A heuristic grasp of ``kind`` in its object frame, with noise: the broad prior of pick.
+    ``facing``: for side grasps, the direction (radians, in the object frame) the hand should
+    travel as it approaches, i.e. away from the robot's base; ``None``: any direction."""
     half = OBJECT_KINDS[kind].half_extents
     jitter = rng.normal(0.0, [0.006, 0.006, 0.004])
     flip = float(rng.choice([0.0, math.pi]))  # the hand either way round
@@ -139,7 +141,7 @@ def grasp_proposal(kind: str, rng: Rng) -> FloatArray:
         knob_z = OBJECT_KINDS["lid"].frames["knob"][2]
         return pose9(np.array([0.0, 0.0, knob_z]) + jitter, rot_z(rng.uniform(-math.pi, math.pi)) @ DOWN)
     if kind in ("nail", "mug", "cup"):
-        out: FloatArray = side_grasp(kind, rng) + np.concatenate([jitter, np.zeros(6)])
+        out: FloatArray = side_grasp(kind, rng, facing) + np.concatenate([jitter, np.zeros(6)])
         return out
     raise KeyError(f"no grasp heuristic for {kind!r}")
 
@@ -151,13 +153,26 @@ SIDE_HEIGHT = {"nail": (0.03, 0.06), "mug": (0.06, 0.09), "cup": (0.035, 0.055)}
 SIDE_DEPTH = {"nail": 0.0, "mug": 0.005, "cup": 0.005}
 
 
-def side_grasp(kind: str, rng: Rng) -> FloatArray:
-    """From the side, at a random height and azimuth (a mug away from its handle at -x)."""
-    azimuth = rng.uniform(-1.6, 1.6) if kind == "mug" else rng.uniform(-math.pi, math.pi)
+def side_grasp(kind: str, rng: Rng, facing: float | None = None) -> FloatArray:
+    """From the side, at a random height; approaching along ``facing`` give or take 35 degrees
+    (from the robot's side: a far-side approach is rarely reachable), or from any azimuth. A mug
+    is never approached across its handle (at -x)."""
+    if facing is None:
+        azimuth = rng.uniform(-math.pi, math.pi)
+    else:  # SIDE approaches along -x at azimuth 0, i.e. travelling in direction pi
+        azimuth = math.remainder(facing - math.pi + rng.uniform(-0.6, 0.6), 2 * math.pi)
+    if kind == "mug":
+        azimuth = float(np.clip(azimuth, -1.6, 1.6))
     z = rng.uniform(*SIDE_HEIGHT[kind])
     rotation = rot_z(azimuth) @ SIDE
     offset = rot_z(azimuth) @ np.array([SIDE_DEPTH[kind], 0.0, 0.0])
     return pose9([offset[0], offset[1], z], rotation)
+
+
+def facing_from(robot: str, x: float, y: float, yaw: float) -> float:
+    """The direction from ``robot``'s base to (x, y), in the frame of an object turned by ``yaw``."""
+    bx, by, _ = BASES[robot]
+    return math.atan2(y - by, x - bx) - yaw
 
 
 # ---------------------------------------------------------------------------------- pick
@@ -167,11 +182,11 @@ def pick(kind: str) -> ScenarioSampler:
     def sample(rng: Rng) -> Scenario:
         robot = str(rng.choice(["left", "right"]))
         x, y = in_front(rng, robot)
-        objects: list[dict[str, object]] = [
-            {"name": "obj", "kind": kind, "pose": pose7(x, y, TABLE_Z, rng.uniform(-math.pi, math.pi))}
-        ]
+        yaw = rng.uniform(-math.pi, math.pi)
+        objects: list[dict[str, object]] = [{"name": "obj", "kind": kind, "pose": pose7(x, y, TABLE_Z, yaw)}]
         plan = make_plan(objects, [{"skill": "pick", "robot": robot, "object": "obj"}])
-        return Scenario(plan, [], 1, lambda r, _s: [grasp_proposal(kind, r)], box_uniform(kind))
+        facing = facing_from(robot, x, y, yaw)
+        return Scenario(plan, [], 1, lambda r, _s: [grasp_proposal(kind, r, facing)], box_uniform(kind))
 
     return sample
 
@@ -240,14 +255,13 @@ def move(kind: str) -> ScenarioSampler:
         if kind == "empty":
             return Scenario(make_plan([], [{"skill": "move", "robot": robot}]), [], 1, propose, move_uniform)
         x, y = in_front(rng, robot)
-        objects: list[dict[str, object]] = [
-            {"name": "obj", "kind": kind, "pose": pose7(x, y, TABLE_Z, rng.uniform(-math.pi, math.pi))}
-        ]
+        yaw = rng.uniform(-math.pi, math.pi)
+        objects: list[dict[str, object]] = [{"name": "obj", "kind": kind, "pose": pose7(x, y, TABLE_Z, yaw)}]
         skeleton: list[dict[str, object]] = [
             {"skill": "pick", "robot": robot, "object": "obj"},
             {"skill": "move", "robot": robot, "object": "obj"},
         ]
-        setup: list[FloatArray | None] = [grasp_proposal(kind, rng)]
+        setup: list[FloatArray | None] = [grasp_proposal(kind, rng, facing_from(robot, x, y, yaw))]
         return Scenario(make_plan(objects, skeleton), setup, 1, propose, move_uniform)
 
     return sample

@@ -6,10 +6,11 @@ import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import numpy as np
 import torch
 
-from gfc.geometry import matrix_to_pose9, pose9_to_matrix, pose9_to_pose7
-from gfc.plan.graph import CompiledPlan
+from gfc.geometry import matrix_to_pose9, pose9_frame_map, pose9_to_matrix, pose9_to_pose7
+from gfc.plan.graph import CompiledPlan, TemporalFactor
 from gfc.plan.schema import Options
 from gfc.planner.composed import Compensation, ComposedScore
 from gfc.planner.layout import VariableLayout, known_values_of
@@ -17,6 +18,7 @@ from gfc.planner.library import SkillLibrary
 from gfc.planner.merge import merge_plans
 from gfc.planner.sampling import SamplingSettings, initial_noise, sample_graph
 from gfc.planner.spatial import SpatialTerms
+from gfc.skills.signatures import skill_spec
 
 SATISFIED_BELOW = 1.0  # a factor is satisfied when every scaled residual is within its tolerance
 
@@ -40,6 +42,23 @@ def batch_key(options: Options) -> tuple[Any, ...]:
     return (options.steps, options.sampler, options.corrector_steps, options.compensation)
 
 
+def effect_as_action(
+    plan: CompiledPlan, factor: TemporalFactor, layout: VariableLayout, row: Any, raw: Any
+) -> Any:
+    """A move's parameter *is* its effect: the end-effector pose it ends at. Executing the
+    sampled robot effect node (in the model's frame) rather than the action token makes the
+    command agree with every factor on that node, e.g. the closed chain of two hands holding one
+    pot, which the action token only follows through the model's learned, approximate identity."""
+    role = skill_spec(factor.skill).action_is_effect_of
+    token = next((t for t in factor.tokens if t.role == role and t.phase == "effect"), None)
+    if role is None or token is None or token.node is None or token.node not in layout.node_offset:
+        return raw
+    offset = layout.node_offset[token.node]
+    world = row[offset : offset + 9]
+    a, b = pose9_frame_map(np.asarray(factor.world_from_model))
+    return a @ world + b
+
+
 def describe_candidate(
     plan: CompiledPlan, spatial: SpatialTerms, z: torch.Tensor, index: int
 ) -> dict[str, Any]:
@@ -55,6 +74,7 @@ def describe_candidate(
         else:
             var = plan.actions[action]
             raw = row[layout.action_offset[action] : layout.action_offset[action] + var.dim]
+            raw = effect_as_action(plan, factor, layout, row, raw)
             vec = matrix_to_pose9(pose9_to_matrix(raw)) if var.dim == 9 else raw  # orthonormal rotation
             entry["action"] = [float(v) for v in vec]
             entry["action_named"] = dict(zip(var.names, entry["action"], strict=True))

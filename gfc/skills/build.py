@@ -62,7 +62,7 @@ class BuildBudget:
 
 
 BUDGETS: dict[str, BuildBudget] = {
-    "full": BuildBudget(attempts=150, train_steps=600),
+    "full": BuildBudget(attempts=150, train_steps=1000),
     "tiny": BuildBudget(attempts=4, train_steps=20, batch_size=16, shard_size=4),
 }
 

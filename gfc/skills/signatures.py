@@ -62,6 +62,7 @@ class SkillSpec:
     hands_over: bool = False
     object_required: bool = True
     target_required: bool = False
+    action_is_effect_of: Role | None = None  # the action is this role's effect node (move: the hand)
 
     @property
     def action_dim(self) -> int:
@@ -118,6 +119,7 @@ SKILLS: dict[str, SkillSpec] = _spec(
         action_frame="end-effector pose in the robot's base frame",
         requires_held=True,
         object_required=False,
+        action_is_effect_of="robot",
     ),
     SkillSpec(
         "regrasp",

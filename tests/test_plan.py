@@ -98,6 +98,15 @@ def test_group_shares_one_new_version_of_a_jointly_held_object() -> None:
     ]
     assert graph.temporal_degree()[graph.node("pot@1").id] == 4  # effect of both picks, pre of both moves
     assert graph.stages == ((0, 1), (2, 3))
+    # Carrying the pot with both hands: the compiler adds the closed chain itself (physics), on
+    # the hands before and after the carry, besides the plan's own constraint and goal.
+    implied = [f for f in graph.spatial if f.source == "implied"]
+    assert [(f.type, [graph.nodes[n].label for n in f.nodes]) for f in implied] == [
+        ("fixed_transform", ["left@1", "right@1", "left@2", "right@2"])
+    ]
+    plan["skeleton"] = plan["skeleton"][:2]  # a two-handed pick alone: no closed chain to keep yet
+    plan["constraints"], plan["goal"] = [], []
+    assert not [f for f in compile_plan(plan).spatial if f.source == "implied"]
     fixed = graph.spatial[0]
     assert [graph.nodes[n].label for n in fixed.nodes] == ["left@1", "right@1", "left@2", "right@2"]
 

@@ -195,3 +195,24 @@ def test_batched_requests_get_the_answers_they_would_get_alone() -> None:
         assert batched.timing["batched_with"] == 1.0
     with pytest.raises(ValueError, match="cannot share a batch"):
         plan_many([(place, options_a), (nail, options_b.model_copy(update={"steps": 7}))], library)
+
+
+def test_a_moves_executed_action_is_its_sampled_hand_effect(hammer_nail: tuple[CompiledPlan, object]) -> None:
+    plan, library = hammer_nail
+    request = parse_plan(load_example("hammer_nail"))
+    options = request.options.model_copy(update={"candidates": 2, "top_k": 2, "steps": 4})
+    candidate = plan_candidates(plan, library, options).candidates[0]  # type: ignore[arg-type]
+    checked = 0
+    for factor in plan.temporal:
+        if factor.skill != "move":
+            continue
+        hand = next(t for t in factor.tokens if t.role == "robot" and t.phase == "effect")
+        assert hand.node is not None
+        world = np.asarray(candidate["nodes"][plan.nodes[hand.node].label]["pose"])
+        base = np.asarray(factor.world_from_model)
+        in_base = np.linalg.inv(base) @ pose7_to_matrix(world)
+        step = next(s for s in candidate["steps"] if s["step"] == factor.step)
+        assert np.allclose(step["action"][:3], in_base[:3, 3], atol=1e-5)
+        assert np.allclose(step["action"][3:6], in_base[:3, 0], atol=1e-4)
+        checked += 1
+    assert checked == 3  # hammer to the handover, nail up, hammer over the nail

@@ -10,7 +10,7 @@ import torch
 from gfc.diffusion.denoiser import StackedDenoiser, single_model
 from gfc.diffusion.network import DiTConfig
 from gfc.diffusion.training import sample_model
-from gfc.geometry import matrix_to_pose9, pose7_to_matrix, yaw_quat
+from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose9_to_matrix, yaw_quat
 from gfc.kinds import HOME_EE_POSE_IN_BASE, OBJECT_KINDS
 from skill_store import DEFAULT_LIBRARY, SkillStore
 
@@ -35,8 +35,9 @@ def handle_grasps(grasps: np.ndarray) -> np.ndarray:
     """Which grasps close across the handle from above: the fingertips' centre on the handle,
     the approach axis pointing down, the hand's x axis along the handle."""
     x, y, z = grasps[:, 0], grasps[:, 1], grasps[:, 2]
-    hand_x, hand_y = grasps[:, 3:6], grasps[:, 6:9]
-    approach = np.cross(hand_x, hand_y)
+    # The executor reads a sample's rotation columns after Gram-Schmidt: judge that rotation.
+    rotations = np.array([pose9_to_matrix(g)[:3, :3] for g in grasps])
+    hand_x, approach = rotations[:, :, 0], rotations[:, :, 2]
     on_handle = (x > -0.12) & (x < 0.07) & (np.abs(y) < 0.015) & (z > 0.0) & (z < 0.04)
     return on_handle & (approach[:, 2] < -0.9) & (np.abs(hand_x[:, 0]) > 0.9)
 

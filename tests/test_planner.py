@@ -203,15 +203,15 @@ def test_a_moves_executed_action_is_its_sampled_hand_effect(hammer_nail: tuple[C
     options = request.options.model_copy(update={"candidates": 2, "top_k": 2, "steps": 4})
     candidate = plan_candidates(plan, library, options).candidates[0]  # type: ignore[arg-type]
     checked = 0
-    for factor in plan.temporal:
-        if factor.skill != "move":
+    for move in plan.temporal:
+        if move.skill != "move":
             continue
-        hand = next(t for t in factor.tokens if t.role == "robot" and t.phase == "effect")
+        hand = next(t for t in move.tokens if t.role == "robot" and t.phase == "effect")
         assert hand.node is not None
         world = np.asarray(candidate["nodes"][plan.nodes[hand.node].label]["pose"])
-        base = np.asarray(factor.world_from_model)
+        base = np.asarray(move.world_from_model)
         in_base = np.linalg.inv(base) @ pose7_to_matrix(world)
-        step = next(s for s in candidate["steps"] if s["step"] == factor.step)
+        step = next(s for s in candidate["steps"] if s["step"] == move.step)
         assert np.allclose(step["action"][:3], in_base[:3, 3], atol=1e-5)
         assert np.allclose(step["action"][3:6], in_base[:3, 0], atol=1e-4)
         checked += 1

@@ -38,7 +38,7 @@ def test_validate_json_output() -> None:
     out = gfc("validate", "--json", str(example_path("hammer_nail")))
     assert out.returncode == 0, out.stderr
     data = json.loads(out.stdout)
-    assert data["valid"] and len(data["temporal_factors"]) == 11
+    assert data["valid"] and len(data["temporal_factors"]) == 10  # 11 steps; strike has no factor
 
 
 def test_validate_lists_every_error_and_exits_two(tmp_path: Path) -> None:

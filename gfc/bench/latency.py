@@ -104,7 +104,7 @@ def run_latency(
     medians = {name: statistics.median(ts) for name, ts in times.items()}
     return {
         "workload": "hammer_nail",
-        "skeleton_steps": len(compiled.temporal),
+        "skeleton_steps": len(compiled.temporal) + len(compiled.terminal),
         "candidates": candidates,
         "steps": steps,
         "repeats": repeats,

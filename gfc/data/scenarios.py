@@ -26,14 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from gfc.geometry import FloatArray, matrix_to_pose9, pose7_to_matrix, pose9_to_matrix, yaw_quat
+from gfc.geometry import FloatArray, matrix_to_pose9, pose7_to_matrix, pose9_to_matrix
 from gfc.kinds import OBJECT_KINDS
 from gfc.plan.schema import PlanRequest
+from gfc.tasks.base import DOWN, LEFT_BASE, RIGHT_BASE, TABLE_Z, pose7, rot_z
 
-TABLE_Z = 0.625
-BASES = {"left": (0.0, 0.35, TABLE_Z), "right": (0.0, -0.35, TABLE_Z)}
+BASES = {"left": LEFT_BASE, "right": RIGHT_BASE}
 OTHER = {"left": "right", "right": "left"}
-DOWN = np.diag([1.0, -1.0, -1.0])  # gripper pointing down, fingers closing along the object's y
 Rng = np.random.Generator
 State = dict[str, Any]  # {"poses": {entity: world pose7}, "grippers": {robot: opening}}
 # Draws actions for the target steps, given the state the set-up left (a proposal may aim
@@ -61,11 +60,6 @@ ScenarioSampler = Callable[[Rng], Scenario]
 
 
 # ---------------------------------------------------------------------------------- small helpers
-def rot_z(angle: float) -> FloatArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 def rot_x(angle: float) -> FloatArray:
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
@@ -86,10 +80,6 @@ def pose9(position: FloatArray | list[float], rotation: FloatArray) -> FloatArra
 
 def uniform_pose(rng: Rng, low: list[float], high: list[float]) -> FloatArray:
     return pose9(rng.uniform(low, high), random_rotation(rng))
-
-
-def pose7(x: float, y: float, z: float, yaw: float = 0.0) -> list[float]:
-    return [x, y, z, *(float(v) for v in yaw_quat(yaw))]
 
 
 def in_front(

@@ -36,12 +36,15 @@ def build(
     report: Annotated[Path | None, typer.Option(help="JSON with per-model rows and timings")] = None,
     seed: Annotated[int, typer.Option(min=0)] = 0,
 ) -> None:  # fmt: skip
-    """Collect each model's data in the simulator, train it, publish it with alias 'latest'.
+    """Collect each model's data in the simulator, train them all, publish each with alias 'latest'.
 
     Every model of the default library goes through the same pipeline as `gfc collect` and
     `gfc train`: random scenes, a broad action prior, successes kept; the paper's DiT trained
     with denoising score matching; weights published as bfloat16 with the data hash and metrics.
-    Datasets resume shard by shard, so an interrupted build can be run again.
+    All datasets are collected first, then all models train together as stacked networks (one
+    optimiser step for every model that shares a token count). Datasets resume shard by shard,
+    and models this build already published to the store (same budget and seed) are skipped, so
+    an interrupted build can be run again.
 
     Example: gfc library build --store /tmp/skills --report docs/bench/library_build.json
     """
@@ -49,7 +52,7 @@ def build(
     from rich.table import Table
 
     from gfc.pool import LocalPool
-    from gfc.skills.build import BUDGETS, DEFAULT_MODELS, build_model
+    from gfc.skills.build import BUDGETS, DEFAULT_MODELS, build_library
     from skill_store import SkillStore
 
     console = Console()
@@ -64,33 +67,38 @@ def build(
     target = SkillStore(store or _store_option())
     pool = LocalPool(processes, keep_alive=True)
     began = time.perf_counter()
-    builds = []
     with pool, console.status("building") as status:
-        for i, model in enumerate(models):
 
-            def say(m: str, what: str, i: int = i) -> None:
-                status.update(f"[{i + 1}/{len(models)}] {m}: {what}")
-                console.log(f"{m}: {what}")
+        def say(m: str, what: str) -> None:
+            status.update(f"{m}: {what}")
+            console.log(f"{m}: {what}")
 
-            builds.append(build_model(model, BUDGETS[budget], data, target, pool, seed, say))
+        result = build_library(models, budget, data, target, pool, seed, say)
     total = time.perf_counter() - began
-    table = Table(title=f"library build ({budget}): {total / 60:.1f} min")
-    for col in ("model", "version", "rows", "data success", "collect s", "train s", "held-out loss"):
+    table = Table(
+        title=f"library build ({budget}): {total / 60:.1f} min, training {result.train_s / 60:.1f} min"
+    )
+    for col in ("model", "version", "rows", "data success", "collect s", "train s (share)", "held-out loss"):
         table.add_column(col)
-    for b in builds:
+    for b in result.built:
         table.add_row(
             b.model, str(b.version), str(b.rows), f"{b.data_success_rate:.0%}", f"{b.collect_s:.0f}",
             f"{b.train_s:.0f}", f"{b.held_out_loss:.3f}",
         )  # fmt: skip
     console.print(table)
+    if result.skipped:
+        done = ", ".join(f"{m}@{v}" for m, v in result.skipped.items())
+        console.print(f"already built by this build, skipped: {done}")
     if report is not None:
         report.parent.mkdir(parents=True, exist_ok=True)
         machine = f"{platform.machine()}, {processes} simulator processes"
         payload = {
             "budget": budget,
             "total_s": total,
+            "train_total_s": result.train_s,  # one stacked training run; each model's train_s is its share
             "machine": machine,
-            "models": [b.to_json() for b in builds],
+            "models": [b.to_json() for b in result.built],
+            "skipped": result.skipped,
         }
         report.write_text(json.dumps(payload, indent=2) + "\n")
         console.print(f"wrote {report}")

@@ -47,8 +47,10 @@ class TrainResult:
 
 
 def data_statistics(data: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Per-dimension mean and spread of flat data (N, D), spread floored at MIN_STD."""
-    return data.mean(0), data.std(0).clamp_min(MIN_STD)
+    """Per-dimension mean and spread of flat data (N, D), spread floored at MIN_STD (also for a
+    single row, whose sample spread is undefined)."""
+    spread = data.std(0) if data.shape[0] > 1 else torch.zeros(data.shape[1])
+    return data.mean(0), spread.clamp_min(MIN_STD)
 
 
 def random_token_mask(batch: int, n_tokens: int, share: float, generator: torch.Generator) -> torch.Tensor:

@@ -1,25 +1,31 @@
-"""Build the default skill library from nothing: collect each model's data, train it, publish it.
+"""Build the default skill library from nothing: collect every model's data, train them all, publish.
 
 One ``BuildBudget`` says how many simulated attempts each model gets and how long it trains; the
-``full`` budget made the committed library (docs/skills.md has the command and its timing), the
-``tiny`` budget runs the same pipeline in CI in a few minutes. Models whose version already sits
-in the target store under the budget's alias are skipped, so an interrupted build resumes (and
-each dataset resumes shard by shard).
+``full`` budget made the committed library (docs/skill_learning.md has the command and its
+timing), the ``tiny`` budget runs the same pipeline in CI in a few minutes.
+
+The build first collects every model's dataset (each resumes shard by shard), then trains all
+models in one stacked run (``gfc.skills.training.train_skills``: the models of one token count
+share a stack, and each optimiser step updates all of them), then publishes each model with its
+loss curve. A model whose ``latest`` version in the target store was published by this same
+build (the command recorded in its manifest: budget, seed and model) is skipped, so an
+interrupted build resumes.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gfc.data.dataset import DatasetIndex
 from gfc.data.runner import CollectPlan, collect_dataset
 from gfc.diffusion.network import DiTConfig
 from gfc.diffusion.training import TrainConfig
 from gfc.pool import Pool
-from gfc.skills.training import plot_losses, train_skill
+from gfc.skills.training import plot_losses, train_skills
 
 # The skill models the benchmark tasks use (strike and pour are terminal: no learned model).
 DEFAULT_MODELS: tuple[str, ...] = (
@@ -81,20 +87,49 @@ class ModelBuild:
         return dict(self.__dict__)
 
 
-Progress = Callable[[str, str], None]  # (model, what is happening)
+Progress = Callable[[str, str], None]  # (model, or "training"; what is happening)
 
 
-def build_model(
+@dataclass
+class Collected:
+    """A model's dataset, ready to train."""
+
+    model: str
+    index: DatasetIndex
+    data_success_rate: float  # of the attempts whose set-up succeeded
+    collect_s: float
+
+
+@dataclass
+class LibraryBuild:
+    built: list[ModelBuild]
+    skipped: dict[str, int]  # model -> the version this build had already published
+    train_s: float  # wall time of the stacked training of all built models
+
+
+def build_command(model: str, budget: str, seed: int) -> str:
+    """The command recorded in a built model's manifest; it also marks the model as built."""
+    return f"gfc library build --budget {budget} --seed {seed} --only {model}"
+
+
+def published_version(store: Any, model: str, command: str) -> int | None:
+    """The version under ``latest`` when its manifest records ``command``, else None."""
+    version = store.aliases(model).get("latest")
+    if version is None:
+        return None
+    manifest = store.manifest(f"{model}@{version}")
+    return int(version) if manifest.training.command == command else None
+
+
+def collect_model(
     model: str,
     budget: BuildBudget,
     data_root: Path,
-    store: Any,
     pool: Pool,
     seed: int = 0,
     on_progress: Progress | None = None,
-) -> ModelBuild:
-    """Collect, train and publish one model (as bfloat16 weights: half the bytes, same samples
-    within the sampler's noise; the store records the dtype)."""
+) -> Collected:
+    """Collect (or resume) one model's dataset under ``data_root / model``."""
     say = on_progress or (lambda _m, _w: None)
     began = time.perf_counter()
     attempts = budget.extra_attempts.get(model, budget.attempts)
@@ -103,23 +138,87 @@ def build_model(
         CollectPlan(model, attempts, budget.shard_size, seed), data_root / model, pool,
         lambda shard, s: say(model, f"shard {shard}: {s.rows} rows, {s.success_rate:.0%} success"),
     )  # fmt: skip
-    collected = time.perf_counter()
     if index.rows < 2:
         raise RuntimeError(
             f"{model}: only {index.rows} successful rows from {attempts} attempts; cannot train"
         )
-    say(model, f"training on {index.rows} rows")
-    config = TrainConfig(steps=budget.train_steps, batch_size=budget.batch_size, seed=seed)
-    trained = train_skill(data_root / model, config, DiTConfig())
-    plot_losses(trained.result, f"{model}: {index.rows} rows", data_root / model / "loss.png")
     tried = sum(s.attempts - s.failures.get("setup", 0) for s in index.shards)
     failed = sum(v for s in index.shards for k, v in s.failures.items() if k != "setup")
     data_rate = (tried - failed) / tried if tried else 0.0
-    metadata = trained.metadata()
-    metadata["metrics"] = {**trained.metrics, "data_success_rate": data_rate}
-    metadata["command"] = f"gfc library build --only {model}"
-    version = store.publish(model, trained.model.with_precision("bfloat16"), metadata, aliases=("latest",))
-    return ModelBuild(
-        model, version, index.rows, data_rate, collected - began, time.perf_counter() - collected,
-        trained.metrics["held_out_loss"],
-    )  # fmt: skip
+    return Collected(model, index, data_rate, time.perf_counter() - began)
+
+
+def train_and_publish(
+    collected: list[Collected],
+    budget_name: str,
+    data_root: Path,
+    store: Any,
+    seed: int = 0,
+    on_progress: Progress | None = None,
+) -> tuple[list[ModelBuild], float]:
+    """Train the collected models in one stacked run, then plot and publish each (as bfloat16
+    weights: half the bytes, same samples within the sampler's noise; the store records the
+    dtype). Returns the builds and the wall time of the training run; each build's ``train_s``
+    is that time's share per model."""
+    say = on_progress or (lambda _m, _w: None)
+    budget = BUDGETS[budget_name]
+    config = TrainConfig(steps=budget.train_steps, batch_size=budget.batch_size, seed=seed)
+    every = max(1, config.steps // 10)
+
+    def on_step(stack: Sequence[str], step: int, losses: list[float]) -> None:
+        if (step + 1) % every == 0:
+            mean = sum(losses) / len(losses)
+            say(
+                "training",
+                f"a stack of {len(stack)} models: step {step + 1}/{config.steps}, mean loss {mean:.3g}",
+            )
+
+    names = [c.model for c in collected]
+    say("training", f"{len(names)} models, {config.steps} steps of {config.batch_size} rows each")
+    began = time.perf_counter()
+    trained = train_skills([data_root / m for m in names], config, DiTConfig(), on_step=on_step)
+    train_s = time.perf_counter() - began
+    builds = []
+    for c, skill in zip(collected, trained, strict=True):
+        plot_losses(skill.result, f"{c.model}: {c.index.rows} rows", data_root / c.model / "loss.png")
+        metadata = skill.metadata()
+        metadata["metrics"] = {**skill.metrics, "data_success_rate": c.data_success_rate}
+        metadata["command"] = build_command(c.model, budget_name, seed)
+        metadata["notes"] = f"trained in one stacked run (train_skills) with: {', '.join(names)}"
+        version = store.publish(
+            c.model, skill.model.with_precision("bfloat16"), metadata, aliases=("latest",)
+        )
+        builds.append(
+            ModelBuild(
+                c.model, version, c.index.rows, c.data_success_rate, c.collect_s, train_s / len(collected),
+                skill.metrics["held_out_loss"],
+            )
+        )  # fmt: skip
+    return builds, train_s
+
+
+def build_library(
+    models: list[str],
+    budget_name: str,
+    data_root: Path,
+    store: Any,
+    pool: Pool,
+    seed: int = 0,
+    on_progress: Progress | None = None,
+) -> LibraryBuild:
+    """Collect every model not yet built into ``store``, train them together, publish them."""
+    say = on_progress or (lambda _m, _w: None)
+    budget = BUDGETS[budget_name]
+    skipped: dict[str, int] = {}
+    collected = []
+    for model in models:
+        version = published_version(store, model, build_command(model, budget_name, seed))
+        if version is not None:
+            say(model, f"already built: version {version}")
+            skipped[model] = version
+            continue
+        collected.append(collect_model(model, budget, data_root, pool, seed, on_progress))
+    if not collected:
+        return LibraryBuild([], skipped, 0.0)
+    built, train_s = train_and_publish(collected, budget_name, data_root, store, seed, on_progress)
+    return LibraryBuild(built, skipped, train_s)

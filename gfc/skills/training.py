@@ -1,15 +1,18 @@
-"""Train one skill model from its dataset: split, statistics, DiT, denoising score matching.
+"""Train skill models from their datasets: split, statistics, DiT, denoising score matching.
 
-Split into load, build, fit, evaluate, plot (STYLE.md); ``gfc train`` strings them together and
-publishes the result to the skill store.
+Split into load, build, fit, evaluate, plot (STYLE.md); ``gfc train`` strings them together for
+one model and publishes the result to the skill store. ``train_skills`` trains many models at
+once as stacks (``gfc.diffusion.multi_training``), each model getting the split, statistics,
+batches and metrics that ``train_skill`` would give it; ``gfc library build`` uses it.
 """
 
 from __future__ import annotations
 
 import shlex
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -17,8 +20,11 @@ import torch
 
 from gfc.data.dataset import DatasetIndex, load_dataset
 from gfc.diffusion.denoiser import StackedDenoiser, single_model
+from gfc.diffusion.multi_training import build_stack, train_stacked
 from gfc.diffusion.network import DiTConfig
 from gfc.diffusion.training import TrainConfig, TrainResult, data_statistics, evaluate_loss, train_denoiser
+
+GroupStep = Callable[[Sequence[str], int, list[float]], None]  # (models trained together, step, losses)
 
 
 @dataclass
@@ -59,19 +65,68 @@ def train_skill(
     data, index = load_dataset(dataset_dir)
     train, val = split(data, held_out, config.seed)
     mean, std = data_statistics(train)
-    # Trained with clean (observed) tokens too, so the planner can condition on them exactly.
-    config_net = replace(network or DiTConfig(), conditioning=config.clean_share > 0)
-    model = single_model(index.layout, config_net, mean, std)
+    model = single_model(index.layout, _network(network, config), mean, std)
     result = train_denoiser(
         model, train, config, val_data=val, on_step=on_step, val_every=max(1, config.steps // 20)
     )
-    metrics = {
+    metrics = _metrics(result, train, val, config.seed)
+    return TrainedSkill(index.skill, result.model, result, index, metrics, config.seed)
+
+
+def train_skills(
+    dataset_dirs: Sequence[str | Path],
+    config: TrainConfig,
+    network: DiTConfig | None = None,
+    held_out: float = 0.1,
+    on_step: GroupStep | None = None,
+) -> list[TrainedSkill]:
+    """Train several skill models at once, in dataset order; each as ``train_skill`` would.
+
+    Models with the same number of tokens train as one stack (``train_stacked``): one optimiser
+    step for all of them. Stacking models of different token counts would pad every row to the
+    most tokens, and the step's cost grows with the tokens, so each token count gets its own
+    stack. Each model is initialised from ``config.seed`` alone, and draws its batches as it would
+    alone; only the dropout masks depend on which models share a stack.
+    """
+    loaded = [load_dataset(d) for d in dataset_dirs]
+    splits = [split(data, held_out, config.seed) for data, _ in loaded]
+    indexes = [index for _, index in loaded]
+    config_net = _network(network, config)
+    out: dict[int, TrainedSkill] = {}
+    for group in _same_token_count(indexes):
+        names = [indexes[i].skill for i in group]
+        trains, vals = [splits[i][0] for i in group], [splits[i][1] for i in group]
+        stack = build_stack([indexes[i].layout for i in group], trains, config_net, seed=config.seed)
+        report = None if on_step is None else partial(on_step, names)
+        stacked = train_stacked(
+            stack, trains, config, val_data=vals, on_step=report, val_every=max(1, config.steps // 20)
+        )
+        for i, train, val, result in zip(group, trains, vals, stacked.results(), strict=True):
+            metrics = _metrics(result, train, val, config.seed)
+            out[i] = TrainedSkill(indexes[i].skill, result.model, result, indexes[i], metrics, config.seed)
+    return [out[i] for i in range(len(loaded))]
+
+
+def _network(network: DiTConfig | None, config: TrainConfig) -> DiTConfig:
+    """Trained with clean (observed) tokens too, so the planner can condition on them exactly."""
+    return replace(network or DiTConfig(), conditioning=config.clean_share > 0)
+
+
+def _same_token_count(indexes: Sequence[DatasetIndex]) -> list[list[int]]:
+    """Positions of the datasets grouped by their layout's token count (ascending)."""
+    groups: dict[int, list[int]] = {}
+    for i, index in enumerate(indexes):
+        groups.setdefault(index.layout.n_tokens, []).append(i)
+    return [groups[t] for t in sorted(groups)]
+
+
+def _metrics(result: TrainResult, train: torch.Tensor, val: torch.Tensor, seed: int) -> dict[str, float]:
+    return {
         "train_loss_final": sum(result.losses[-50:]) / len(result.losses[-50:]),
-        "held_out_loss": evaluate_loss(result.model, val, config.seed),
+        "held_out_loss": evaluate_loss(result.model, val, seed),
         "rows_train": float(train.shape[0]),
         "rows_held_out": float(val.shape[0]),
     }
-    return TrainedSkill(index.skill, result.model, result, index, metrics, config.seed)
 
 
 def plot_losses(result: TrainResult, title: str, path: str | Path) -> Path:

@@ -85,6 +85,13 @@ def fixed_transform(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> to
     return torch.cat([_relative_residual(r, rels[0]) for r in rels[1:]], dim=-1)
 
 
+def relative_pose(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """``inv(T_a) T_b`` equals the pose9 given last (a skill's action, e.g. a grasp in the object
+    frame). Inputs: (a, b, pose9)."""
+    a, b, pose = nodes
+    return _relative_residual(relative_transform(_pose_of(a), _pose_of(b)), pose9_to_transform(pose[..., :9]))
+
+
 def yaw(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     (obj,) = nodes[:1]
     heading = yaw_of_transform(_pose_of(obj)) - float(params["yaw"])
@@ -117,6 +124,7 @@ RESIDUALS: dict[str, Residual] = {
     "inside": inside,
     "aligned": aligned,
     "fixed_transform": fixed_transform,
+    "relative_pose": relative_pose,
     "yaw": yaw,
     "near": near,
     "far": far,

@@ -114,6 +114,22 @@ def test_fixed_transform_between_two_states() -> None:
     assert float(constraints.fixed_transform([left1, right1, left2, moved], {}).abs().max()) > 0.02
 
 
+def test_relative_pose_compares_b_in_as_frame_with_the_given_pose() -> None:
+    box = _node(0.5, 0.0, 0.6)
+    turn = pose7_to_matrix([0.5, 0.0, 0.6, *yaw_quat(math.pi / 2)])
+    in_box = pose7_to_matrix([0.02, -0.01, 0.03, *yaw_quat(0.3)])
+    cube = torch.tensor(matrix_to_pose9(turn @ in_box)).unsqueeze(0)
+    box_turned = torch.tensor(matrix_to_pose9(turn)).unsqueeze(0)
+    action = torch.tensor(matrix_to_pose9(in_box)).unsqueeze(0)
+    assert float(constraints.relative_pose([box_turned, cube, action], {}).abs().max()) < 1e-9
+    # The same cube read in the unturned box's frame is off by the turn.
+    assert float(constraints.relative_pose([box, cube, action], {}).abs().max()) > 0.5
+    shifted = action.clone()
+    shifted[0, 1] += 0.01  # 1 cm along the box's y
+    r = constraints.relative_pose([box_turned, cube, shifted], {})
+    assert float(r[0, 1]) == pytest.approx(-0.01, abs=1e-9)
+
+
 def test_near_and_far_are_one_sided() -> None:
     a, b = _node(0, 0, 0), _node(0.3, 0.4, 0)  # 0.5 apart
     assert float(constraints.near([a, b], {"distance": 0.6})) == 0.0

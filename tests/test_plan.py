@@ -43,8 +43,12 @@ def test_example_compiles_to_expected_node_versions() -> None:
         ("place.hammer.box", ["right@1", "hammer@3", "box@0"], ["right@2", "hammer@4"]),
     ]
     assert summary["spatial_factors"] == [
-        {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]}
-    ]
+        # implied by the skills: the hammer stays put in the moving hand; the place's action is
+        # where the hammer rests in the box
+        {"type": "fixed_transform", "source": "implied", "index": 0, "nodes": ["left@1", "hammer@1", "left@2", "hammer@2"]},
+        {"type": "relative_pose", "source": "implied", "index": 1, "nodes": ["box@0", "hammer@4"], "actions_of_steps": [3]},
+        {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]},
+    ]  # fmt: skip
     assert summary["shared_nodes"] == [
         "hammer@1",
         "hammer@2",
@@ -98,17 +102,44 @@ def test_group_shares_one_new_version_of_a_jointly_held_object() -> None:
     ]
     assert graph.temporal_degree()[graph.node("pot@1").id] == 4  # effect of both picks, pre of both moves
     assert graph.stages == ((0, 1), (2, 3))
-    # Carrying the pot with both hands: the compiler adds the closed chain itself (physics), on
-    # the hands before and after the carry, besides the plan's own constraint and goal.
+    # Carrying the pot with both hands: the compiler adds physics itself, besides the plan's own
+    # constraint and goal: each hand keeps the pot where it holds it (the move's kinematic link),
+    # and the two hands keep their relative pose (the closed chain).
     implied = [f for f in graph.spatial if f.source == "implied"]
     assert [(f.type, [graph.nodes[n].label for n in f.nodes]) for f in implied] == [
-        ("fixed_transform", ["left@1", "right@1", "left@2", "right@2"])
+        ("fixed_transform", ["left@1", "pot@1", "left@2", "pot@2"]),
+        ("fixed_transform", ["right@1", "pot@1", "right@2", "pot@2"]),
+        ("fixed_transform", ["left@1", "right@1", "left@2", "right@2"]),
     ]
-    plan["skeleton"] = plan["skeleton"][:2]  # a two-handed pick alone: no closed chain to keep yet
+    ablated = compile_plan({**plan, "options": {"kinematics": False}})  # the closed chain stays
+    assert [[ablated.nodes[n].label for n in f.nodes] for f in ablated.spatial if f.source == "implied"] == [
+        ["left@1", "right@1", "left@2", "right@2"]
+    ]
+    plan["skeleton"] = plan["skeleton"][:2]  # a two-handed pick alone: nothing held through a move yet
     plan["constraints"], plan["goal"] = [], []
     assert not [f for f in compile_plan(plan).spatial if f.source == "implied"]
-    fixed = graph.spatial[0]
-    assert [graph.nodes[n].label for n in fixed.nodes] == ["left@1", "right@1", "left@2", "right@2"]
+
+
+def test_a_place_links_its_action_to_where_the_object_rests() -> None:
+    plan = {
+        "scene": {
+            "robots": [{"name": "left", "base": [0, 0.35, 0.625]}],
+            "objects": [
+                {"name": "cube", "kind": "cube", "pose": [0.5, 0.3, 0.625, 0, 0, 0, 1]},
+                {"name": "box", "kind": "box", "pose": [0.5, 0.0, 0.625, 0, 0, 0, 1], "fixed": True},
+            ],
+        },
+        "skeleton": [
+            {"skill": "pick", "robot": "left", "object": "cube"},
+            {"skill": "place", "robot": "left", "object": "cube", "target": "box"},
+        ],
+    }
+    graph = compile_plan(plan)
+    (link,) = [f for f in graph.spatial if f.source == "implied"]
+    place_action = next(a for a in graph.actions if a.step == 1)
+    assert link.type == "relative_pose"
+    assert [graph.nodes[n].label for n in link.nodes] == ["box@0", "cube@2"]
+    assert link.actions == (place_action.id,)
 
 
 @pytest.mark.parametrize(

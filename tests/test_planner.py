@@ -139,7 +139,11 @@ def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan
     assert np.allclose(rot @ rot.T, np.eye(2), atol=1e-6)  # orthonormal columns: executable
     assert first["steps"][10]["action"] == []  # strike: precondition only
     assert set(first["nodes"]) == {n.label for n in plan.free}
-    assert {r["type"] for r in first["residuals"]} == {"aligned", "far"}
+    assert {r["type"] for r in first["residuals"] if r["source"] != "implied"} == {"aligned", "far"}
+    assert {r["type"] for r in first["residuals"] if r["source"] == "implied"} == {
+        "fixed_transform",
+        "relative_pose",
+    }
     again = plan_candidates(plan, library, options)  # type: ignore[arg-type]
     assert again.candidates[0]["steps"] == first["steps"]  # same seed, same plan
 
@@ -197,7 +201,9 @@ def test_batched_requests_get_the_answers_they_would_get_alone() -> None:
         plan_many([(place, options_a), (nail, options_b.model_copy(update={"steps": 7}))], library)
 
 
-def test_a_moves_executed_action_is_its_sampled_hand_effect(hammer_nail: tuple[CompiledPlan, object]) -> None:
+def test_a_moves_executed_action_is_its_held_objects_sampled_effect(
+    hammer_nail: tuple[CompiledPlan, object],
+) -> None:
     plan, library = hammer_nail
     request = parse_plan(load_example("hammer_nail"))
     options = request.options.model_copy(update={"candidates": 2, "top_k": 2, "steps": 4})
@@ -206,9 +212,9 @@ def test_a_moves_executed_action_is_its_sampled_hand_effect(hammer_nail: tuple[C
     for move in plan.temporal:
         if move.skill != "move":
             continue
-        hand = next(t for t in move.tokens if t.role == "robot" and t.phase == "effect")
-        assert hand.node is not None
-        world = np.asarray(candidate["nodes"][plan.nodes[hand.node].label]["pose"])
+        held = next(t for t in move.tokens if t.role == "object" and t.phase == "effect")
+        assert held.node is not None
+        world = np.asarray(candidate["nodes"][plan.nodes[held.node].label]["pose"])
         base = np.asarray(move.world_from_model)
         in_base = np.linalg.inv(base) @ pose7_to_matrix(world)
         step = next(s for s in candidate["steps"] if s["step"] == move.step)
@@ -216,3 +222,42 @@ def test_a_moves_executed_action_is_its_sampled_hand_effect(hammer_nail: tuple[C
         assert np.allclose(step["action"][3:6], in_base[:3, 0], atol=1e-4)
         checked += 1
     assert checked == 3  # hammer to the handover, nail up, hammer over the nail
+
+
+def test_spatial_terms_read_actions_after_nodes() -> None:
+    """A kinematic link on a place reads the cube's resting pose, the box's and the place action."""
+    from gfc.planner.layout import VariableLayout
+    from gfc.planner.spatial import SpatialTerms
+
+    plan = compile_plan(
+        {
+            "scene": {
+                "robots": [{"name": "left", "base": [0, 0.35, 0.625]}],
+                "objects": [
+                    {"name": "cube", "kind": "cube", "pose": [0.5, 0.3, 0.625, 0, 0, 0, 1]},
+                    {"name": "box", "kind": "box", "pose": [0.5, 0.0, 0.625, *yaw_quat(0.4)], "fixed": True},
+                ],
+            },
+            "skeleton": [
+                {"skill": "pick", "robot": "left", "object": "cube"},
+                {"skill": "place", "robot": "left", "object": "cube", "target": "box"},
+            ],
+        }
+    )
+    layout = VariableLayout.of(plan)
+    spatial = SpatialTerms(plan, layout)
+    (link_index,) = [i for i, (f, _) in enumerate(spatial.factors) if f.source == "implied"]
+    in_box = pose7_to_matrix([0.03, -0.02, 0.01, *yaw_quat(0.5)])
+    box = pose7_to_matrix([0.5, 0.0, 0.625, *yaw_quat(0.4)])
+    z = torch.zeros(1, layout.free_dim)
+    cube = plan.node("cube@2").id
+    action = next(a for a in plan.actions if a.step == 1).id
+    z[0, layout.node_offset[cube] : layout.node_offset[cube] + 9] = torch.tensor(
+        matrix_to_pose9(box @ in_box)
+    )
+    z[0, layout.action_offset[action] : layout.action_offset[action] + 9] = torch.tensor(
+        matrix_to_pose9(in_box)
+    )
+    assert float(spatial.residuals(z)[link_index].abs().max()) < 1e-4
+    z[0, layout.action_offset[action]] += 0.02  # the action says 2 cm further along the box's x
+    assert float(spatial.residuals(z)[link_index].abs().max()) == pytest.approx(0.02 / 0.02, rel=1e-3)

@@ -8,7 +8,7 @@ Each step's action is drawn uniformly from a box in the frame the action is expr
   ``-margin`` to the object's height + margin).
 - ``place``: object pose in the target frame; position over the target's footprint, up to
   ``PLACE_ABOVE`` over its top.
-- ``move``: end-effector pose in the acting robot's base frame; position in ``WORKSPACE``, the
+- ``move``: pose of the held object (the hand when empty) in the acting robot's base frame; position in ``WORKSPACE``, the
   region in front of a Panda that the tasks use.
 - ``push``, ``pull``: ``(x, y, r, theta)`` uniform in ``PUSH_LOW``..``PUSH_HIGH`` (the executor
   accepts ``0 < r <= 0.3``).
@@ -95,7 +95,7 @@ def action_box(plan: PlanRequest, step: Step) -> ActionBox | None:
         low, high = _kind_box(kinds[step.target], 0.0, PLACE_ABOVE)
         if kinds[step.target] == "rack":  # things go in front of and beside the rack, not on it
             low, high = (low[0] - 0.2, low[1] - 0.2, low[2]), (high[0] + 0.2, high[1] + 0.2, high[2])
-    else:  # move: the end effector anywhere in front of the robot
+    else:  # move: the held object (or the hand) anywhere in front of the robot
         low, high = WORKSPACE
     return ActionBox(low, high, pose=True)
 

@@ -218,11 +218,19 @@ def hand_in_base(state: State, robot: str) -> FloatArray:
     return out
 
 
-def move_target(rng: Rng, hand: FloatArray) -> FloatArray:
-    """An end-effector pose in the base frame: anywhere in a box in front of the arm, the hand
-    turned about the vertical from where it is (so what it holds stays upright), slightly tilted."""
+def move_target(
+    rng: Rng, robot: str, hand: FloatArray, hand_from_object: FloatArray | None = None
+) -> FloatArray:
+    """The move action in the base frame: the hand anywhere in a box in front of the arm that
+    reaches past the middle of the table (where two arms meet to hand over or pour), turned
+    about the vertical from where it is (so what it holds stays upright), slightly tilted; the
+    action is the pose this puts the held object at (the hand's own pose when empty-handed)."""
     rotation = rot_z(rng.uniform(-math.pi / 2, math.pi / 2)) @ rot_x(rng.normal(0.0, 0.08)) @ hand[:3, :3]
-    return pose9(rng.uniform([0.3, -0.3, 0.12], [0.65, 0.3, 0.45]), rotation)
+    inward = -1.0 if BASES[robot][1] > 0 else 1.0  # towards the other arm
+    y_range = sorted((0.3 * -inward, 0.5 * inward))
+    low, high = [0.28, y_range[0], 0.12], [0.68, y_range[1], 0.45]
+    target = pose9_to_matrix(pose9(rng.uniform(low, high), rotation))
+    return matrix_to_pose9(target if hand_from_object is None else target @ hand_from_object)
 
 
 # Anywhere the arm might reach (the Panda reaches 0.855 m from its shoulder, 0.33 m above the base).
@@ -240,7 +248,9 @@ def move(kind: str) -> ScenarioSampler:
         robot = str(rng.choice(["left", "right"]))
 
         def propose(r: Rng, state: State) -> list[FloatArray]:
-            return [move_target(r, hand_in_base(state, robot))]
+            hand = pose7_to_matrix(state["poses"][robot])
+            held = None if kind == "empty" else np.linalg.inv(hand) @ pose7_to_matrix(state["poses"]["obj"])
+            return [move_target(r, robot, hand_in_base(state, robot), held)]
 
         if kind == "empty":
             return Scenario(make_plan([], [{"skill": "move", "robot": robot}]), [], 1, propose, move_uniform)
@@ -272,9 +282,8 @@ def move_pot(rng: Rng) -> Scenario:
         moved[:3, :3] = rot_z(r.uniform(-1.0, 1.0)) @ pot[:3, :3]  # turns of up to 57 degrees
         moved[:3, 3] += r.uniform([-0.04, -0.04, 0.0], [0.04, 0.04, 0.08])
         out = []
-        for robot in ("left", "right"):
-            pot_from_hand = np.linalg.inv(pot) @ pose7_to_matrix(state["poses"][robot])
-            target = moved @ pot_from_hand
+        for robot in ("left", "right"):  # the action: the pot's pose in each arm's base frame
+            target = moved.copy()
             target[:3, 3] -= BASES[robot]
             out.append(matrix_to_pose9(target))
         return out
@@ -442,8 +451,8 @@ def regrasp_hammer(rng: Rng) -> Scenario:
         rng.uniform(-0.04, 0.04),
         TABLE_Z + rng.uniform(0.18, 0.3),
     ]
-    hand = hammer @ pose9_to_matrix(grasp)
-    hand[:3, 3] -= BASES[giver]
+    held_out = hammer.copy()  # the move's action: the hammer's pose in the giver's base frame
+    held_out[:3, 3] -= BASES[giver]
     skeleton: list[dict[str, object]] = [
         {"skill": "pick", "robot": giver, "object": "obj"},
         {"skill": "move", "robot": giver, "object": "obj"},
@@ -454,7 +463,7 @@ def regrasp_hammer(rng: Rng) -> Scenario:
         position = [r.uniform(-0.11, -0.05), r.normal(0.0, 0.004), 0.018 + r.normal(0.0, 0.003)]
         return [pose9(position, rot_z(float(r.choice([0.0, math.pi])) + r.normal(0.0, 0.15)) @ DOWN)]
 
-    setup: list[FloatArray | None] = [grasp, matrix_to_pose9(hand)]
+    setup: list[FloatArray | None] = [grasp, matrix_to_pose9(held_out)]
     return Scenario(make_plan(objects, skeleton), setup, 1, propose, box_uniform("hammer"))
 
 

@@ -27,6 +27,7 @@ from gfc.plan.graph import (
     SpatialFactor,
     TemporalFactor,
 )
+from gfc.plan.kinematics import links_of
 from gfc.plan.schema import (
     Aligned,
     Far,
@@ -403,6 +404,8 @@ class _Compiler:
                 self.objects[step.object].kind if step.object else None,
                 self.objects[step.target].kind if step.target in self.objects else None,
             )
+            if self.plan.options.kinematics:
+                self.add_kinematics(spec, with_object, tokens, action_id)
             self.temporal.append(
                 TemporalFactor(
                     step=i,
@@ -426,6 +429,26 @@ class _Compiler:
             self.stage_of_group[group] = stage_index
         self.stages.append(tuple(stage))
         self.snapshots.append(dict(self.state.latest))
+
+    def add_kinematics(
+        self, spec: SkillSpec, with_object: bool, tokens: list[FactorToken], action_id: int | None
+    ) -> None:
+        """The step's kinematic links (gfc/plan/kinematics.py) as implied spatial factors."""
+        node_of = {(t.role, t.phase): t.node for t in tokens if t.node is not None}
+        for link in links_of(spec.name, with_object):
+            nodes = [node_of.get(ref) for ref in link.nodes]
+            if any(n is None for n in nodes) or (link.with_action and action_id is None):
+                continue
+            self.spatial.append(
+                SpatialFactor(
+                    link.type,
+                    "implied",
+                    len(self.spatial),
+                    tuple(n for n in nodes if n is not None),
+                    {"weight": 1.0, **link.params},
+                    (action_id,) if link.with_action and action_id is not None else (),
+                )
+            )
 
     def add_closed_chain(
         self, valid: list[tuple[int, Step, SkillSpec]], before: dict[str, int], after: dict[str, int]

@@ -80,6 +80,7 @@ class SpatialFactor:
     index: int  # position in the request's constraints or goal list
     nodes: tuple[int, ...]
     params: dict[str, Any] = field(default_factory=dict)
+    actions: tuple[int, ...] = ()  # action variables the residual reads after the nodes
 
 
 @dataclass(frozen=True)
@@ -138,6 +139,7 @@ class CompiledPlan:
                     "source": s.source,
                     "index": s.index,
                     "nodes": [label[i] for i in s.nodes],
+                    **({"actions_of_steps": [self.actions[a].step for a in s.actions]} if s.actions else {}),
                 }
                 for s in self.spatial
             ],

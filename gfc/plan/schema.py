@@ -193,6 +193,12 @@ class Options(_Strict):
     corrector_steps: Annotated[int, Field(ge=0, le=20)] = Field(
         0, description="Langevin corrector steps per sampling step (slower, closer to the product)"
     )
+    kinematics: bool = Field(
+        False,
+        description="add the skills' kinematic links (a carried object stays put in the hand, a "
+        "placed object rests at the place action) as implied factors; off by default: on the "
+        "benchmark they lowered success (docs/adr/0002)",
+    )
 
     @model_validator(mode="after")
     def _top_k_within_candidates(self) -> Options:

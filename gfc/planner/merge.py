@@ -59,7 +59,7 @@ def merge_plans(plans: list[CompiledPlan]) -> tuple[CompiledPlan, list[PlanColum
             )
             temporal.append(replace(f, step=f.step + s0, tokens=tokens))
         spatial += [
-            SpatialFactor(sf.type, sf.source, sf.index, tuple(n + n0 for n in sf.nodes), sf.params)
+            replace(sf, nodes=tuple(n + n0 for n in sf.nodes), actions=tuple(a + a0 for a in sf.actions))
             for sf in plan.spatial
         ]
         stages += [tuple(i + s0 for i in stage) for stage in plan.stages]

@@ -45,13 +45,15 @@ def batch_key(options: Options) -> tuple[Any, ...]:
 def effect_as_action(
     plan: CompiledPlan, factor: TemporalFactor, layout: VariableLayout, row: Any, raw: Any
 ) -> Any:
-    """A move's parameter *is* its effect: the end-effector pose it ends at. Executing the
-    sampled robot effect node (in the model's frame) rather than the action token makes the
-    command agree with every factor on that node, e.g. the closed chain of two hands holding one
-    pot, which the action token only follows through the model's learned, approximate identity."""
-    role = skill_spec(factor.skill).action_is_effect_of
-    token = next((t for t in factor.tokens if t.role == role and t.phase == "effect"), None)
-    if role is None or token is None or token.node is None or token.node not in layout.node_offset:
+    """A move's parameter *is* its effect: the pose the held object (or the empty hand) ends at.
+    Executing the sampled effect node (in the model's frame) rather than the action token makes
+    the command agree with every factor on that node (the mug's rim over the cup, the pot at its
+    target yaw), which the action token only follows through the model's learned, approximate
+    identity; the simulator then derives the hand's pose from the grasp it really has."""
+    effects = {t.role: t for t in factor.tokens if t.phase == "effect"}
+    role = next((r for r in skill_spec(factor.skill).action_is_effect_of if r in effects), None)
+    token = None if role is None else effects[role]
+    if token is None or token.node is None or token.node not in layout.node_offset:
         return raw
     offset = layout.node_offset[token.node]
     world = row[offset : offset + 9]

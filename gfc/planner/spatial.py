@@ -18,7 +18,12 @@ class SpatialTerms:
         self.layout = layout
         self.known_values = known_values if known_values is not None else known_values_of(plan, layout)
         self.factors: list[tuple[SpatialFactor, list[tuple[bool, int, int]]]] = [
-            (f, [layout.locate(plan.nodes[n]) for n in f.nodes]) for f in plan.spatial
+            (
+                f,
+                [layout.locate(plan.nodes[n]) for n in f.nodes]
+                + [(False, layout.action_offset[a], plan.actions[a].dim) for a in f.actions],
+            )
+            for f in plan.spatial
         ]
 
     def __bool__(self) -> bool:

@@ -130,9 +130,19 @@ def stage_graph(scenario: Scenario, before: State) -> CompiledPlan:
         )
         for f in factors
     )
-    implied = tuple(  # physics the compiler adds (two hands on one object), never user constraints
-        replace(sf, index=i, nodes=tuple(node_id[n] for n in sf.nodes))
-        for i, sf in enumerate(x for x in compiled.spatial if x.source == "implied" and set(x.nodes) <= used)
+    kept_implied = [  # physics the compiler adds (grasps, two hands on one object), never user constraints
+        x
+        for x in compiled.spatial
+        if x.source == "implied" and set(x.nodes) <= used and set(x.actions) <= set(action_id)
+    ]
+    implied = tuple(
+        replace(
+            sf,
+            index=i,
+            nodes=tuple(node_id[n] for n in sf.nodes),
+            actions=tuple(action_id[a] for a in sf.actions),
+        )
+        for i, sf in enumerate(kept_implied)
     )
     return CompiledPlan(
         tuple(replace(n, id=node_id[n.id]) for n in nodes),

@@ -35,6 +35,7 @@ ROLE_KIND: dict[Role, TokenKind] = {
 KIND_DIM: dict[TokenKind, int] = {"robot": ROBOT_STATE_DIM, "object": OBJECT_STATE_DIM}
 
 POSE_ACTION = ("x", "y", "z", "r11", "r21", "r31", "r12", "r22", "r32")
+PICK_LIFT = 0.12  # m a pick lifts the grasped object straight up (part of what "pick" means)
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,9 @@ class SkillSpec:
     hands_over: bool = False
     object_required: bool = True
     target_required: bool = False
-    action_is_effect_of: Role | None = None  # the action is this role's effect node (move: the hand)
+    # The action is the effect node of the first of these roles the step has (move: the held
+    # object, or the hand when it holds nothing).
+    action_is_effect_of: tuple[Role, ...] = ()
 
     @property
     def action_dim(self) -> int:
@@ -116,10 +119,10 @@ SKILLS: dict[str, SkillSpec] = _spec(
         reads=("robot", "object"),
         writes=("robot", "object"),
         action_names=POSE_ACTION,
-        action_frame="end-effector pose in the robot's base frame",
+        action_frame="pose of the held object (of the end effector when empty-handed) in the robot's base frame",
         requires_held=True,
         object_required=False,
-        action_is_effect_of="robot",
+        action_is_effect_of=("object", "robot"),
     ),
     SkillSpec(
         "regrasp",

@@ -69,7 +69,8 @@ def grasp9(position: Sequence[float], rotation: FloatArray = DOWN) -> FloatArray
 
 
 def in_base(base: Sequence[float], world_from_ee: FloatArray) -> FloatArray:
-    """An end-effector pose in the world -> the move action (pose in the robot's base frame)."""
+    """A world pose -> the same pose in the robot's base frame (a move's action: where the held
+    object, or the empty hand, goes)."""
     world_from_base = pose7_to_matrix([*base, 0.0, 0.0, 0.0, 1.0])
     return matrix_to_pose9(invert(world_from_base) @ world_from_ee)
 

@@ -12,7 +12,6 @@ import numpy as np
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest
 from gfc.tasks.base import (
-    DOWN,
     LEFT_BASE,
     RIGHT_BASE,
     TABLE_Z,
@@ -79,7 +78,6 @@ def sample(seed: int) -> TaskInstance:
         [0.48 + rng.uniform(-0.03, 0.03), 0.08 + rng.uniform(-0.03, 0.03), TABLE_Z + 0.15],
         np.eye(3),
     )
-    nail_from_grasp = frame([0.0, 0.0, NAIL_GRASP_Z], SIDE)
     nail_top = (nail_at @ np.array([*object_kind("nail").frames["top"][:3], 1.0]))[:3]
     head = object_kind("hammer").frames["head"][:3]
     half_z = object_kind("hammer").half_extents[2]
@@ -93,8 +91,8 @@ def sample(seed: int) -> TaskInstance:
         in_base(LEFT_BASE, handover),
         grasp9([RIGHT_GRASP_X, 0.0, HANDLE_Z]),
         grasp9([0.0, 0.0, NAIL_GRASP_Z], SIDE),
-        in_base(LEFT_BASE, nail_at @ nail_from_grasp),
-        in_base(RIGHT_BASE, hammer_at @ frame([RIGHT_GRASP_X, 0.0, HANDLE_Z], DOWN)),
+        in_base(LEFT_BASE, nail_at),
+        in_base(RIGHT_BASE, hammer_at),
         None,
     ]
     return TaskInstance("hammer_nail", seed, plan, actions)

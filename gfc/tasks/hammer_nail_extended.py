@@ -22,7 +22,7 @@ import numpy as np
 from gfc.geometry import FloatArray
 from gfc.plan.schema import PlanRequest
 from gfc.tasks import hammer_nail
-from gfc.tasks.base import DOWN, RIGHT_BASE, TABLE_Z, TaskInstance, frame, grasp9, in_base, pose7, rot_z
+from gfc.tasks.base import RIGHT_BASE, TABLE_Z, TaskInstance, frame, grasp9, in_base, pose7, rot_z
 from gfc.tasks.boxes import FLOOR
 
 PRELUDE_STEPS = 4  # the distractions go after Hammer Nail's lid-and-cube prelude
@@ -71,7 +71,7 @@ def sample_variant(name: str, seed: int) -> TaskInstance:
             skeleton.append({"skill": "move", "robot": "right", "object": name_i})
             crate = frame([crate_x, crate_y, TABLE_Z], rot_z(crate_yaw))
             cube_at = crate @ frame([slot, 0.0, CARRY_HEIGHT], np.eye(3))
-            actions.append(in_base(RIGHT_BASE, cube_at @ frame([0.0, 0.0, CUBE_GRASP_Z], DOWN)))
+            actions.append(in_base(RIGHT_BASE, cube_at))
         skeleton.append({"skill": "place", "robot": "right", "object": name_i, "target": "crate"})
         actions.append(grasp9([slot, 0.0, FLOOR + 0.003], np.eye(3)))
 

@@ -10,7 +10,6 @@ import numpy as np
 
 from gfc.plan.schema import PlanRequest
 from gfc.tasks.base import (
-    DOWN,
     LEFT_BASE,
     TABLE_Z,
     TaskInstance,
@@ -29,12 +28,11 @@ RIGHT_GRASP_X = -0.08  # near the handle end
 
 
 def handover_pose(rng: np.random.Generator) -> np.ndarray:
-    """World pose of the left end effector when it holds the hammer out, handle towards -y."""
-    hammer = frame(
+    """World pose of the hammer when the left hand holds it out, handle towards -y."""
+    return frame(
         [0.45 + rng.uniform(-0.03, 0.03), rng.uniform(-0.03, 0.02), TABLE_Z + 0.25],
         rot_z(math.pi / 2),
     )
-    return hammer @ frame([LEFT_GRASP_X, 0.0, HANDLE_Z], DOWN)
 
 
 def hammer_objects(rng: np.random.Generator) -> list[dict[str, object]]:

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 
-from gfc.geometry import pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest
 from gfc.tasks.base import (
@@ -71,11 +70,6 @@ def sample_with_angle(seed: int, angle_deg: float) -> TaskInstance:
     # Turn about the pot's vertical axis: world_from_new = pivot @ Rz(angle) @ pivot^-1.
     pivot = frame([px, py, 0.0], np.eye(3))
     turn = pivot @ frame([0.0, 0.0, 0.0], rot_z(math.radians(angle_deg))) @ np.linalg.inv(pivot)
-    moves = {side: turn @ lifted @ pose9_to_matrix(grasps[side]) for side in ("left", "right")}
-    actions = [
-        grasps["left"],
-        grasps["right"],
-        in_base(LEFT_BASE, moves["left"]),
-        in_base(RIGHT_BASE, moves["right"]),
-    ]
+    turned = turn @ lifted  # the move's action: the pot's pose, in each arm's base frame
+    actions = [grasps["left"], grasps["right"], in_base(LEFT_BASE, turned), in_base(RIGHT_BASE, turned)]
     return TaskInstance("pot_reorientation", seed, plan, list(actions))

@@ -12,7 +12,6 @@ import math
 
 import numpy as np
 
-from gfc.geometry import pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest
 from gfc.tasks.base import (
@@ -31,7 +30,7 @@ from gfc.tasks.base import (
 BEADS = 6
 # m the lip stops short of the cup's centre: the contents leave it moving towards the cup.
 LIP_SHORT = 0.0135
-CLEARANCE = 0.03  # m between the cup's rim and the mug's bottom when the pour starts
+CLEARANCE = 0.04  # m between the cup's rim and the mug's bottom when the pour starts
 # Side grasps, fingers across the body, the hand's x axis up (columns: the hand's x, y, z axes).
 # The mug is taken high, approaching along its -x (the handle on the far side); the cup low,
 # approaching along its +y, so the two forearms come from different sides when they meet.
@@ -91,8 +90,8 @@ def sample(seed: int) -> TaskInstance:
     actions = [
         MUG_GRASP,
         CUP_GRASP,
-        in_base(LEFT_BASE, mug_at @ pose9_to_matrix(MUG_GRASP)),
-        in_base(RIGHT_BASE, cup_at @ pose9_to_matrix(CUP_GRASP)),
+        in_base(LEFT_BASE, mug_at),
+        in_base(RIGHT_BASE, cup_at),
         None,
     ]
     return TaskInstance("pour_cup", seed, plan, list(actions), contents={"mug": BEADS})

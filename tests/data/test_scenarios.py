@@ -80,9 +80,9 @@ def test_move_proposals_keep_the_held_object_upright() -> None:
     rng = np.random.default_rng(1)
     scenario = SCENARIOS["move.mug"](rng)
     state = fake_state(scenario)
-    hand = pose7_to_matrix(state["poses"][scenario.plan.skeleton[-1].robot])  # type: ignore[index]
+    held = pose7_to_matrix(state["poses"]["obj"])  # type: ignore[index]
     for _ in range(50):
         (action,) = scenario.propose(rng, state)  # type: ignore[arg-type]
-        target = pose9_to_matrix(action)
-        # The hand turns about the vertical (and tilts a few degrees): its z axis stays put.
-        assert target[:3, 2] @ hand[:3, 2] > np.cos(np.radians(25))
+        target = pose9_to_matrix(action)  # where the mug goes (a move's action is the held object's pose)
+        # The hand turns about the vertical (and tilts a few degrees): the mug's z axis stays put.
+        assert target[:3, 2] @ held[:3, 2] > np.cos(np.radians(25))

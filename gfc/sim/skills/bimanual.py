@@ -41,6 +41,7 @@ from gfc.sim.skills.motions import (
     require_holding,
     translated,
 )
+from gfc.sim.skills.moving import hand_target
 from gfc.sim.world import object_matrix
 
 CHAIN_POSITION_TOLERANCE = 0.01  # m: how much the two grasps may disagree
@@ -131,7 +132,7 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
     targets = []
     for s, a in zip(steps, actions, strict=True):
         require_holding(world, s.robot, s.object)
-        targets.append(world.physics.robots[s.robot].world_from_base @ pose9_to_matrix(a))
+        targets.append(hand_target(world, s.robot, s.object, a))
     held = [s.object for s in steps]
     if len(steps) == 2 and held[0] is not None and held[0] == held[1]:
         # One object in two hands: the hands must keep their relative pose (a closed chain).

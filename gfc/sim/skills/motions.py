@@ -24,9 +24,10 @@ from gfc.sim.motion import plan_motion
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, arm_joints, ee_matrix
 from gfc.sim.world import World, gripper_openings, object_matrix, sync_mirror
+from gfc.skills.signatures import PICK_LIFT
 
 APPROACH = 0.10  # m: pre-grasp offset back along the gripper's approach axis
-LIFT = 0.12  # m: how far a pick lifts the object
+LIFT = PICK_LIFT  # m: how far a pick lifts the object
 IK_ATTEMPTS = 24
 IK_CANDIDATES = 6  # collision-free solutions to choose from
 IK_RANDOM_RESTARTS = 3  # random starts per attempt after the seeded ones (side grasps need many)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from gfc.bench.goals import verdict_markdown
 from gfc.bench.tasks import FAILURE_TYPES, BenchResult, Trial, to_arrays
 from gfc.tasks import sample_task
 
@@ -56,8 +57,8 @@ def results_markdown(
                 f"| {task} | {method} | {_pct(row['top1'])} | {_pct(row['any5'])} | {row['trials']} "
                 f"| {row['plan_seconds_median']:.3f} |"
             )
+    lines += ["", *verdict_markdown(summary)]
     lines += [
-        "",
         "## Failures of the top-1 executions",
         "",
         "Per step, the trials whose first failure was that step, by type (1: no IK solution or "

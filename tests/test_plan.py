@@ -43,8 +43,12 @@ def test_example_compiles_to_expected_node_versions() -> None:
         ("place.hammer.box", ["right@1", "hammer@3", "box@0"], ["right@2", "hammer@4"]),
     ]
     assert summary["spatial_factors"] == [
-        # implied by the skills: the hammer stays put in the moving hand; the place's action is
-        # where the hammer rests in the box
+        {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]}
+    ]
+    # With the kinematic links on, the skills imply two more factors: the hammer stays put in the
+    # moving hand; the place's action is where the hammer rests in the box.
+    linked = compile_plan({**example(), "options": {"kinematics": True}}).summary()
+    assert linked["spatial_factors"] == [
         {"type": "fixed_transform", "source": "implied", "index": 0, "nodes": ["left@1", "hammer@1", "left@2", "hammer@2"]},
         {"type": "relative_pose", "source": "implied", "index": 1, "nodes": ["box@0", "hammer@4"], "actions_of_steps": [3]},
         {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]},
@@ -103,16 +107,17 @@ def test_group_shares_one_new_version_of_a_jointly_held_object() -> None:
     assert graph.temporal_degree()[graph.node("pot@1").id] == 4  # effect of both picks, pre of both moves
     assert graph.stages == ((0, 1), (2, 3))
     # Carrying the pot with both hands: the compiler adds physics itself, besides the plan's own
-    # constraint and goal: each hand keeps the pot where it holds it (the move's kinematic link),
-    # and the two hands keep their relative pose (the closed chain).
-    implied = [f for f in graph.spatial if f.source == "implied"]
-    assert [(f.type, [graph.nodes[n].label for n in f.nodes]) for f in implied] == [
+    # constraint and goal: the two hands keep their relative pose (the closed chain) and, with the
+    # kinematic links on, each hand keeps the pot where it holds it.
+    linked = compile_plan({**plan, "options": {"kinematics": True}})
+    implied = [f for f in linked.spatial if f.source == "implied"]
+    assert [(f.type, [linked.nodes[n].label for n in f.nodes]) for f in implied] == [
         ("fixed_transform", ["left@1", "pot@1", "left@2", "pot@2"]),
         ("fixed_transform", ["right@1", "pot@1", "right@2", "pot@2"]),
         ("fixed_transform", ["left@1", "right@1", "left@2", "right@2"]),
     ]
-    ablated = compile_plan({**plan, "options": {"kinematics": False}})  # the closed chain stays
-    assert [[ablated.nodes[n].label for n in f.nodes] for f in ablated.spatial if f.source == "implied"] == [
+    # By default (links off) the closed chain stays.
+    assert [[graph.nodes[n].label for n in f.nodes] for f in graph.spatial if f.source == "implied"] == [
         ["left@1", "right@1", "left@2", "right@2"]
     ]
     plan["skeleton"] = plan["skeleton"][:2]  # a two-handed pick alone: nothing held through a move yet
@@ -133,6 +138,7 @@ def test_a_place_links_its_action_to_where_the_object_rests() -> None:
             {"skill": "pick", "robot": "left", "object": "cube"},
             {"skill": "place", "robot": "left", "object": "cube", "target": "box"},
         ],
+        "options": {"kinematics": True},
     }
     graph = compile_plan(plan)
     (link,) = [f for f in graph.spatial if f.source == "implied"]

@@ -30,7 +30,7 @@ from gfc.tasks.base import (
 BEADS = 6
 # m the lip stops short of the cup's centre: the contents leave it moving towards the cup.
 LIP_SHORT = 0.0135
-CLEARANCE = 0.04  # m between the cup's rim and the mug's bottom when the pour starts
+CLEARANCE = 0.035  # m between the cup's rim and the mug's bottom when the pour starts
 # Side grasps, fingers across the body, the hand's x axis up (columns: the hand's x, y, z axes).
 # The mug is taken high, approaching along its -x (the handle on the far side); the cup low,
 # approaching along its +y, so the two forearms come from different sides when they meet.

@@ -5,16 +5,32 @@ from __future__ import annotations
 import json
 import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.progress import Progress
+from rich.progress import Progress, TaskID
 
 bench_app = typer.Typer(
     help="Benchmarks: print a table, write it (and JSON) under docs/.", no_args_is_help=True
 )
+
+
+def phase_logger(progress: Progress, bar: TaskID, console: Console) -> Callable[[str, int], None]:
+    """Advance the bar; when the output is not a terminal (a log file, CI), where the bar does
+    not show, print a line whenever the phase changes, with how far the run has come."""
+    last: list[str] = []
+
+    def on_progress(msg: str, n: int) -> None:
+        progress.update(bar, advance=n, description=msg)
+        if not console.is_terminal and (not last or last[-1] != msg):
+            last.append(msg)
+            state = next(t for t in progress.tasks if t.id == bar)
+            console.print(f"{msg} ({int(state.completed)}/{int(state.total or 0)} units done)")
+
+    return on_progress
 
 
 @bench_app.command()
@@ -174,7 +190,7 @@ def tasks(
                 make_pool(ray, processes),
                 settings,
                 seed=seed,
-                on_progress=lambda msg, n: progress.update(bar, advance=n, description=msg),
+                on_progress=phase_logger(progress, bar, console),
             )
     except (MissingModelsError, KeyError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")

@@ -1,17 +1,17 @@
-"""Kinematic links that a skill's meaning implies between its nodes and its action.
+"""Optional kinematic links that a skill's meaning implies between its nodes and its action.
 
 A skill model learns ``p(pre, action, effect)`` from data, and a small model trained on a few
-hundred rows keeps relations that are exact in the world only approximately: after ``pick`` the
-hand sits at the grasp pose (the action) in the object frame; an object held through ``move``
-keeps its pose in the hand. Composed over several steps, those few-centimetre errors compound:
-the plan's mug ends over the cup while the executed hand, which is what the robot obeys, is
-elsewhere. These relations are geometry, not learned behaviour, so the compiler states them as
-implied spatial factors (source ``"implied"``), as it does for two hands holding one object.
+hundred rows keeps relations that are exact in the world only approximately: an object carried
+through ``move`` keeps its pose in the hand; a placed object rests at the place action's pose in
+the target frame. With ``Options.kinematics`` on, the compiler states them as implied spatial
+factors (source ``"implied"``), as it does for two hands holding one object. They are off by
+default: on the benchmark they lowered success (docs/adr/0002-what-a-move-executes.md). Links
+for pick and regrasp ("the hand ends at the grasp") are deliberately absent: objects such as the
+mug swing in the fingers, so the data contradicts them.
 
 Each link names its nodes by (role, phase) in the step's factor and, optionally, the step's
-action, which the residual receives after the nodes. Tolerances are the physical slack: a grasp
-settles by millimetres as the fingers close, a placed object by up to a couple of centimetres.
-``Options.kinematics = False`` compiles plans without them (the ablation).
+action, which the residual receives after the nodes. Tolerances are the physical slack: a carried
+object shifts by millimetres in the hand, a placed object settles by up to a couple of centimetres.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ import numpy as np
 
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest
+from gfc.skills.signatures import PICK_LIFT
 from gfc.tasks.base import (
     DOWN,
     LEFT_BASE,
@@ -24,7 +25,7 @@ from gfc.tasks.base import (
     rot_z,
 )
 
-LIFT = 0.12  # m: the pick's lift (gfc.sim.skills.motions.LIFT), so the turn starts from there
+LIFT = PICK_LIFT  # m: the turn starts where the two-handed pick lifted the pot
 HANDLE_GRASP_X = 0.03  # beside the bracket that joins the handle to the wall
 DEFAULT_ANGLE_DEG = 45.0
 

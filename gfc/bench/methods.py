@@ -21,6 +21,11 @@
   candidate, repeated. An oracle that shows what the simulator allows on the benchmark's scenes
   and checks the harness's success path; never part of the default comparison.
 
+Every method's candidates (not the oracle's) then pass the same kinematic screen
+(``gfc.sim.screen``, ``PlanSettings.screen``): the first candidates whose poses the arms can
+reach without collision move to the front, so top-1 executes the best candidate that is
+kinematically possible. The screen knows nothing of the task's goal or constraints.
+
 Planning time is wall clock for the method's whole call, including loading models into a bank
 (the libraries cache banks, so only a task's first trial pays for it; the median hides that).
 """
@@ -40,6 +45,7 @@ from gfc.plan.graph import CompiledPlan, FactorToken, NodeVersion, TemporalFacto
 from gfc.plan.schema import Options
 from gfc.planner.library import SkillLibrary
 from gfc.planner.planner import PlanResult, plan_candidates
+from gfc.sim.screen import screen_order
 from gfc.tasks.base import TaskInstance
 
 Actions = list[FloatArray | None]
@@ -72,6 +78,12 @@ class MethodPlan:
 class PlanSettings:
     candidates: int = 10  # sampled per trial; all of them are ranked, the first five are executed
     steps: int = 50  # reverse diffusion steps
+    # Kinematic screening (gfc.sim.screen): candidates whose poses the arms cannot reach go to
+    # the back of the ranking. Applied to every method alike (not the reference oracle).
+    screen: bool = True
+
+
+SCREEN_KEEP = 5  # screening stops once this many candidates have passed (any-5 runs five)
 
 
 def required_models(compiled: CompiledPlan) -> list[str]:
@@ -182,10 +194,26 @@ def _reference(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
     return MethodPlan(candidates, time.perf_counter() - t0)
 
 
+def screened(method: Method) -> Method:
+    """``method`` with its candidates re-ranked by the kinematic screen when settings ask for it:
+    those that pass first, each group in the method's own order. Its time counts as planning."""
+
+    def plan(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
+        result = method(instance, settings)
+        if not settings.screen:
+            return result
+        t0 = time.perf_counter()
+        order, _ = screen_order(instance.plan, result.candidates, keep=SCREEN_KEEP, seed=instance.seed)
+        candidates = [result.candidates[k] for k in order]
+        return MethodPlan(candidates, result.seconds + time.perf_counter() - t0)
+
+    return plan
+
+
 def make_method(name: str, library: SkillLibrary | None) -> Method:
     """The planner called ``name``; the learned ones need a library."""
     if name == "random":
-        return _random
+        return screened(_random)
     if name == "reference":
         return _reference
     if name not in METHODS:
@@ -193,7 +221,7 @@ def make_method(name: str, library: SkillLibrary | None) -> Method:
     if library is None:
         raise ValueError(f"method {name!r} needs a skill library")
     transform = {"gfc": lambda p: p, "linear_chain": chain_only, "independent": decouple}[name]
-    return _sampled(transform, library)
+    return screened(_sampled(transform, library))
 
 
 def needs_models(name: str) -> bool:

@@ -144,6 +144,14 @@ def tasks(
         typer.Option(help="randomly initialised models instead of the store: checks the plumbing only"),
     ] = False,
     threads: Annotated[int, typer.Option(min=1, help="torch CPU threads for planning")] = 1,
+    screen: Annotated[
+        bool,
+        typer.Option(
+            "--screen/--no-screen",
+            help="re-rank every method's candidates by the kinematic screen (gfc.sim.screen): "
+            "those whose poses the arms can reach go first",
+        ),
+    ] = True,
     ray: Annotated[
         str | None, typer.Option(help="Ray address for the simulations (default: local processes)")
     ] = None,
@@ -177,7 +185,7 @@ def tasks(
         store = SkillStore(skills or DEFAULT_LIBRARY)
         library = StoreLibrary(store)
         source = f"skill models: the skill store at `{store.location}` (latest version of each)"
-    settings = PlanSettings(candidates=candidates, steps=steps)
+    settings = PlanSettings(candidates=candidates, steps=steps, screen=screen)
     total = 2 * len(names) * len(methods) * trials
     try:
         with Progress(console=console, transient=True) as progress:
@@ -208,6 +216,12 @@ def tasks(
         source,
         f"{trials} scenes per task (seeds {seed}..{seed + trials - 1}), {candidates} candidates, "
         f"{steps} sampling steps, {threads} torch thread(s)",
+        "kinematic screen: "
+        + (
+            "on (every method's candidates re-ranked: reachable without collision first; gfc/sim/screen.py)"
+            if screen
+            else "off (candidates in each method's own order)"
+        ),
     ]
     plot_path = plot or out.parent / out.stem / "top1.png"
     plot_top1(summary, plot_path)

@@ -89,6 +89,15 @@ def _solo_goal(
     return free_ik(ctx, robot, pose, collision_fn(ctx, [robot], allowed), what)
 
 
+def _ignoring(ctx: SkillContext, robot: str, robots: Sequence[str]) -> frozenset[tuple[str, str]]:
+    """Pairs that may touch when ``robot``'s goal is solved alone: it (and what it holds) with
+    the other robots of its group (and what they hold)."""
+    mine = {robot} | ({ctx.world.grasps[robot].object} if robot in ctx.world.grasps else set())
+    theirs = {r for r in robots if r != robot}
+    theirs |= {ctx.world.grasps[r].object for r in theirs if r in ctx.world.grasps}
+    return frozenset((a, b) for a in mine for b in theirs)
+
+
 def group_pick(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[FloatArray]) -> str:
     world = ctx.world
     robots = [s.robot for s in steps]
@@ -170,7 +179,16 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
                 )
         execute_paths(world, dict(zip(robots, paths, strict=True)), {r: 0.0 for r in robots}, speed=0.4)
     else:
-        goals = [_solo_goal(ctx, r, t, "the move target") for r, t in zip(robots, targets, strict=True)]
+        # The arms move at once, so each target is solved with the other arm ignored (it will
+        # not stay where it is now); then the two goals are checked together, and the joint
+        # path between is planned for both.
+        goals = [
+            _solo_goal(ctx, r, t, "the move target", _ignoring(ctx, r, robots))
+            for r, t in zip(robots, targets, strict=True)
+        ]
+        hit = collision_fn(ctx, robots)(np.concatenate(goals))
+        if hit is not None:
+            raise SkillFailure(FailureType.PATH, f"the move targets collide: {hit.moving} with {hit.other}")
         _plan_together(ctx, robots, goals, "the move targets")
     for r, t in zip(robots, targets, strict=True):
         dp, _ = pose_error(ee(ctx, r), t)

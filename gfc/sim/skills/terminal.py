@@ -6,12 +6,13 @@ the simulator judges (type 3 when the strike misses or the pour spills).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet as pb
 
 from gfc.geometry import FloatArray, pose7_to_matrix
-from gfc.kinds import object_kind
+from gfc.kinds import ObjectKind, object_kind
 from gfc.plan.schema import Step
 from gfc.sim.control import cartesian_joint_path, execute_paths, gripper_target
 from gfc.sim.outcome import FailureType, SkillFailure
@@ -31,9 +32,44 @@ POUR_LIP_LOW = 0.02  # m: how low over the target's rim the lip comes while tipp
 POUR_SPEED = 0.5  # rad/s of the fastest joint: slow, so that the contents trickle out
 
 
-def _frame(world: World, name: str, frame: str) -> FloatArray:
-    kind = object_kind(world.physics.objects[name].kind)
-    return object_matrix(world.physics, name) @ pose7_to_matrix(kind.frame(frame))
+@dataclass(frozen=True)
+class StrikeAim:
+    offset: float  # m between the striking face's centre and the target's top, horizontally
+    gap: float  # m from the face down to the top
+
+
+def aim_strike(
+    tool: ObjectKind,
+    world_from_tool: FloatArray,
+    target: ObjectKind,
+    world_from_target: FloatArray,
+    name: str,
+) -> StrikeAim:
+    """The strike's precondition from the two poses alone (type 1 when it does not hold); the
+    screen (``gfc.sim.screen``) checks sampled poses with it before anything runs."""
+    if "head" not in tool.frames:
+        raise SkillFailure(FailureType.METHOD, f"the {tool.name} has no head to strike with")
+    head = world_from_tool @ pose7_to_matrix(tool.frame("head"))
+    up = head[:3, 2]
+    tilt = math.acos(min(1.0, abs(float(up[2]))))
+    if tilt > STRIKE_TILT:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"the striking faces are tilted {math.degrees(tilt):.0f} deg from level",
+        )
+    face = head[:3, 3] - math.copysign(tool.half_extents[2], float(up[2])) * up
+    top = (
+        (world_from_target @ pose7_to_matrix(target.frame("top")))[:3, 3]
+        if "top" in target.frames
+        else world_from_target[:3, 3] + [0, 0, 2 * target.half_extents[2]]
+    )
+    offset = float(np.linalg.norm(face[:2] - top[:2]))
+    gap = float(face[2] - top[2])
+    if offset > STRIKE_XY_TOLERANCE:
+        raise SkillFailure(FailureType.METHOD, f"the head is {offset * 100:.1f} cm beside the {name}'s top")
+    if not -0.005 <= gap <= STRIKE_MAX_GAP:
+        raise SkillFailure(FailureType.METHOD, f"the head is {gap * 100:.1f} cm above the {name}'s top")
+    return StrikeAim(offset, gap)
 
 
 def strike(ctx: SkillContext, step: Step, action: FloatArray) -> str:
@@ -42,30 +78,14 @@ def strike(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     assert tool is not None
     assert target is not None
     require_holding(world, robot, tool)
-    tool_kind = object_kind(world.physics.objects[tool].kind)
-    if "head" not in tool_kind.frames:
-        raise SkillFailure(FailureType.METHOD, f"{tool} ({tool_kind.name}) has no head to strike with")
-    head = _frame(world, tool, "head")
-    up = head[:3, 2]
-    tilt = math.acos(min(1.0, abs(float(up[2]))))
-    if tilt > STRIKE_TILT:
-        raise SkillFailure(
-            FailureType.METHOD,
-            f"the striking faces are tilted {math.degrees(tilt):.0f} deg from level",
-        )
-    face = head[:3, 3] - math.copysign(tool_kind.half_extents[2], float(up[2])) * up
-    target_kind = object_kind(world.physics.objects[target].kind)
-    top = (
-        _frame(world, target, "top")[:3, 3]
-        if "top" in target_kind.frames
-        else object_matrix(world.physics, target)[:3, 3] + [0, 0, 2 * target_kind.half_extents[2]]
+    aim = aim_strike(
+        object_kind(world.physics.objects[tool].kind),
+        object_matrix(world.physics, tool),
+        object_kind(world.physics.objects[target].kind),
+        object_matrix(world.physics, target),
+        target,
     )
-    offset = float(np.linalg.norm(face[:2] - top[:2]))
-    gap = float(face[2] - top[2])
-    if offset > STRIKE_XY_TOLERANCE:
-        raise SkillFailure(FailureType.METHOD, f"the head is {offset * 100:.1f} cm beside the {target}'s top")
-    if not -0.005 <= gap <= STRIKE_MAX_GAP:
-        raise SkillFailure(FailureType.METHOD, f"the head is {gap * 100:.1f} cm above the {target}'s top")
+    offset, gap = aim.offset, aim.gap
     straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, -(gap + 0.015)]), "the blow", speed=1.5)
     physics_step(world, 10)
     touching = pb.getContactPoints(
@@ -91,6 +111,60 @@ def _beads_inside(world: World, container: str) -> int:
     return count
 
 
+@dataclass(frozen=True)
+class PourAim:
+    lip: FloatArray  # (3,) the source's rim point over the target, world frame
+    direction: FloatArray  # (3,) horizontal unit vector from the source's rim centre to the target's
+    target_rim: FloatArray  # (3,) the target's rim centre
+
+
+def aim_pour(
+    source: ObjectKind,
+    world_from_source: FloatArray,
+    target: ObjectKind,
+    world_from_target: FloatArray,
+    source_name: str,
+    target_name: str,
+) -> PourAim:
+    """The pour's precondition from the two poses alone (type 1 when it does not hold): both
+    containers upright, the source's lip over the target's opening, the source's bottom a little
+    above the target's rim. The screen checks sampled poses with it."""
+    rims = []
+    for name, kind, pose in (
+        (source_name, source, world_from_source),
+        (target_name, target, world_from_target),
+    ):
+        if kind.inner_half_extents is None or "rim" not in kind.frames:
+            raise SkillFailure(FailureType.METHOD, f"{name} ({kind.name}) is not a container with a rim")
+        if math.acos(min(1.0, float(pose[2, 2]))) > POUR_UPRIGHT:
+            raise SkillFailure(FailureType.METHOD, f"{name} is not upright before the pour")
+        rims.append((pose @ pose7_to_matrix(kind.frame("rim")))[:3, 3])
+    source_rim, target_rim = rims
+    towards = target_rim[:2] - source_rim[:2]
+    distance = float(np.linalg.norm(towards))
+    if distance < 1e-6:
+        raise SkillFailure(
+            FailureType.METHOD, f"{source_name} is right above {target_name}'s centre: no side to pour over"
+        )
+    direction = np.array([*(towards / distance), 0.0])
+    assert source.inner_half_extents is not None
+    assert target.inner_half_extents is not None
+    lip = source_rim + source.inner_half_extents[0] * direction
+    lip_offset = float(np.linalg.norm(lip[:2] - target_rim[:2]))
+    if lip_offset > POUR_LIP_FRACTION * target.inner_half_extents[0]:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"the lip of {source_name} is {lip_offset * 100:.1f} cm from {target_name}'s centre",
+        )
+    clearance = float(world_from_source[2, 3] - target_rim[2])
+    if not POUR_MIN_CLEARANCE <= clearance <= POUR_MAX_CLEARANCE:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"{source_name}'s bottom is {clearance * 100:.1f} cm above {target_name}'s rim",
+        )
+    return PourAim(lip, direction, target_rim)
+
+
 def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     """Tip the held container about its lip (the rim point nearest the target), then right it."""
     world, robot, source, target = ctx.world, step.robot, step.object, step.target
@@ -98,38 +172,15 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     assert target is not None
     require_holding(world, robot, source)
     kinds = [object_kind(world.physics.objects[n].kind) for n in (source, target)]
-    for name, kind in zip((source, target), kinds, strict=True):
-        if kind.inner_half_extents is None or "rim" not in kind.frames:
-            raise SkillFailure(FailureType.METHOD, f"{name} ({kind.name}) is not a container with a rim")
-        up = object_matrix(world.physics, name)[:3, 2]
-        if math.acos(min(1.0, float(up[2]))) > POUR_UPRIGHT:
-            raise SkillFailure(FailureType.METHOD, f"{name} is not upright before the pour")
-    source_rim, target_rim = (
-        _frame(world, source, "rim")[:3, 3],
-        _frame(world, target, "rim")[:3, 3],
+    aim = aim_pour(
+        kinds[0],
+        object_matrix(world.physics, source),
+        kinds[1],
+        object_matrix(world.physics, target),
+        source,
+        target,
     )
-    towards = target_rim[:2] - source_rim[:2]
-    distance = float(np.linalg.norm(towards))
-    if distance < 1e-6:
-        raise SkillFailure(
-            FailureType.METHOD, f"{source} is right above {target}'s centre: no side to pour over"
-        )
-    direction = np.array([*(towards / distance), 0.0])
-    assert kinds[0].inner_half_extents is not None
-    assert kinds[1].inner_half_extents is not None
-    lip = source_rim + kinds[0].inner_half_extents[0] * direction
-    lip_offset = float(np.linalg.norm(lip[:2] - target_rim[:2]))
-    if lip_offset > POUR_LIP_FRACTION * kinds[1].inner_half_extents[0]:
-        raise SkillFailure(
-            FailureType.METHOD,
-            f"the lip of {source} is {lip_offset * 100:.1f} cm from {target}'s centre",
-        )
-    clearance = float(object_matrix(world.physics, source)[2, 3] - target_rim[2])
-    if not POUR_MIN_CLEARANCE <= clearance <= POUR_MAX_CLEARANCE:
-        raise SkillFailure(
-            FailureType.METHOD,
-            f"{source}'s bottom is {clearance * 100:.1f} cm above {target}'s rim",
-        )
+    lip, direction, target_rim = aim.lip, aim.direction, aim.target_rim
     before = _beads_inside(world, source)
     # Rotate about the horizontal axis perpendicular to the pouring direction, through the lip.
     # Tipping swings the source's body up and away, so the lip is lowered meanwhile by

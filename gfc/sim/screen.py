@@ -1,0 +1,312 @@
+"""Kinematic screening of candidates: can the arms reach every pose a candidate asks for?
+
+A candidate that asks a hand to go where no collision-free IK solution exists fails in
+execution at once (types 1 and 2), and the diffusion models cannot know it: each skill model
+saw only its own scenes, and the arm-arm geometry of a hand-over or a pour is a property of the
+composition. Screening walks the skeleton *kinematically*, on the planning mirror only: object
+poses follow from the actions (what the executors would command), grasps from the pick and
+regrasp actions, and each step's key hand poses (pre-grasp, grasp, lift, move target, above a
+placement, placement) must have an IK solution that collides with nothing, the other arm
+standing where its last screened pose left it. Nothing is stepped, nothing moves by physics: a
+pass says "kinematically possible", not "succeeds". Physics (types 3: slips, resting poses) and
+motion planning between the poses are left to the simulator.
+
+Strike and pour have no action: their geometric preconditions (``aim_strike``, ``aim_pour``:
+the head over the nail, the lip over the cup) are checked on the screened poses, the same
+functions the executors use. Push and pull are not screened: screening stops at the first of
+them (where a pushed block ends up is not known without physics), and the candidate passes the
+rest.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gfc.geometry import FloatArray, invert, pose9_to_matrix
+from gfc.kinds import object_kind
+from gfc.plan.schema import PlanRequest, Step
+from gfc.sim.collision import Carried, make_collision_fn
+from gfc.sim.execute import stages
+from gfc.sim.ik import solve_ik
+from gfc.sim.outcome import SkillFailure
+from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, set_joints
+from gfc.sim.skills.grasping import pre_grasp
+from gfc.sim.skills.motions import APPROACH, LIFT, backed_off, translated
+from gfc.sim.skills.placing import PLACE_APPROACH
+from gfc.sim.skills.terminal import aim_pour, aim_strike
+from gfc.sim.world import World, build_world, object_matrix, place_in_mirror
+
+SCREENED = frozenset({"pick", "place", "move", "regrasp", "strike", "pour"})
+IK_RANDOM_CALLS = 16  # IK calls after the seeded ones, each from four random starts
+REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
+OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    feasible: bool
+    step: int | None = None  # the first step that failed the screen
+    reason: str = ""
+
+
+class _Infeasible(Exception):
+    def __init__(self, step: int, reason: str) -> None:
+        super().__init__(reason)
+        self.step = step
+        self.reason = reason
+
+
+@dataclass
+class _State:
+    """The kinematic state of a candidate's walk: where objects are, who holds what, joints."""
+
+    poses: dict[str, FloatArray]
+    joints: dict[str, FloatArray]
+    held: dict[str, tuple[str, FloatArray]] = field(default_factory=dict)  # robot -> (object, ee_from_object)
+
+
+class Screen:
+    """Screens candidates of one plan; builds the plan's mirror world once (close it after use)."""
+
+    def __init__(self, plan: PlanRequest, seed: int = 0) -> None:
+        self.plan = plan
+        self.world: World = build_world(plan.scene)
+        self.rng = np.random.default_rng(seed)
+        self.start = {name: object_matrix(self.world.mirror, name) for name in self.world.mirror.objects}
+        self.stages = stages(plan)
+        self.solved: dict[str, list[FloatArray]] = {r: [] for r in self.world.mirror.robots}
+
+    def close(self) -> None:
+        self.world.close()
+
+    def __enter__(self) -> Screen:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def check(self, actions: Sequence[FloatArray | None]) -> Verdict:
+        """Whether every screened step of the candidate is kinematically possible."""
+        if len(actions) != len(self.plan.skeleton):
+            raise ValueError(f"{len(actions)} actions for {len(self.plan.skeleton)} skeleton steps")
+        home = np.asarray(HOME_JOINTS, dtype=np.float64)
+        state = _State(
+            poses={k: v.copy() for k, v in self.start.items()},
+            joints={r: home.copy() for r in self.world.mirror.robots},
+        )
+        try:
+            for stage in self.stages:
+                steps = [self.plan.skeleton[i] for i in stage]
+                if any(s.skill not in SCREENED for s in steps):
+                    break
+                values = [actions[i] for i in stage]
+                if any(s.skill in ("strike", "pour") for s in steps):
+                    self._terminal(state, stage[0], steps[0])
+                    continue
+                if any(v is None or not np.all(np.isfinite(v)) for v in values):
+                    return Verdict(False, stage[0], "missing or non-finite action")
+                self._stage(state, stage, steps, [np.asarray(v, dtype=np.float64) for v in values])
+        except _Infeasible as exc:
+            return Verdict(False, exc.step, exc.reason)
+        return Verdict(True)
+
+    # -- one stage ----------------------------------------------------------------------------
+
+    def _stage(self, state: _State, stage: list[int], steps: list[Step], actions: list[FloatArray]) -> None:
+        if len(stage) == 1:
+            i, step, action = stage[0], steps[0], actions[0]
+            {"pick": self._pick, "place": self._place, "move": self._move, "regrasp": self._regrasp}[
+                step.skill
+            ](state, i, step, action)
+            return
+        if {s.skill for s in steps} == {"pick"}:
+            grasps = []
+            for i, s, a in zip(stage, steps, actions, strict=True):
+                assert s.object is not None
+                grasp = state.poses[s.object] @ pose9_to_matrix(a)
+                self._reach(state, i, s.robot, backed_off(grasp, APPROACH), "its pre-grasp")
+                self._reach(state, i, s.robot, grasp, "its grasp", collide=False)
+                grasps.append(grasp)
+            for s, grasp in zip(steps, grasps, strict=True):
+                assert s.object is not None
+                state.held[s.robot] = (s.object, invert(grasp) @ state.poses[s.object])
+            first = steps[0].object
+            assert first is not None
+            state.poses[first] = translated(state.poses[first], [0.0, 0.0, LIFT])
+            for i, s in zip(stage, steps, strict=True):
+                self._reach(state, i, s.robot, self._hand_of(state, s.robot), "the lift", collide=False)
+            return
+        if {s.skill for s in steps} == {"move"}:
+            targets = [self._move_target(state, s, a) for s, a in zip(steps, actions, strict=True)]
+            for s, target in zip(steps, targets, strict=True):
+                if s.object is not None:
+                    state.poses[s.object] = target @ state.held[s.robot][1]
+            # As the executor: each goal alone (the other arms ignored), then all goals together.
+            for i, s, target in zip(stage, steps, targets, strict=True):
+                self._reach(state, i, s.robot, target, "the move target", ignore_others=True)
+            self._check_together(state, stage[0], [s.robot for s in steps])
+            return
+        raise _Infeasible(stage[0], "a group of these skills cannot run at once")
+
+    def _pick(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
+        obj = step.object
+        assert obj is not None
+        grasp = state.poses[obj] @ pose9_to_matrix(action)
+        self._reach(state, i, step.robot, pre_grasp(grasp), f"the pre-grasp of {obj}")
+        self._reach(state, i, step.robot, grasp, f"the grasp of {obj}", collide=False)
+        state.held[step.robot] = (obj, invert(grasp) @ state.poses[obj])
+        state.poses[obj] = translated(state.poses[obj], [0.0, 0.0, LIFT])
+        self._reach(
+            state, i, step.robot, self._hand_of(state, step.robot), f"the lift of {obj}", collide=False
+        )
+
+    def _place(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
+        obj, target = step.object, step.target
+        assert obj is not None
+        assert target is not None
+        self._require_holding(state, i, step.robot, obj)
+        goal = state.poses[target] @ pose9_to_matrix(action)
+        hand = goal @ invert(state.held[step.robot][1])
+        state.poses[obj] = translated(goal, [0.0, 0.0, PLACE_APPROACH])
+        self._reach(state, i, step.robot, translated(hand, [0.0, 0.0, PLACE_APPROACH]), f"above the {target}")
+        state.poses[obj] = goal
+        self._reach(state, i, step.robot, hand, f"the placement on {target}", collide=False)
+        del state.held[step.robot]
+
+    def _move(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
+        if step.object is not None:
+            self._require_holding(state, i, step.robot, step.object)
+        target = self._move_target(state, step, action)
+        if step.object is not None:
+            state.poses[step.object] = target @ state.held[step.robot][1]
+        self._reach(state, i, step.robot, target, "the move target")
+
+    def _regrasp(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
+        obj, giver = step.object, step.from_
+        assert obj is not None
+        assert giver is not None
+        self._require_holding(state, i, giver, obj)
+        grasp = state.poses[obj] @ pose9_to_matrix(action)
+        receiver = step.robot
+        self._reach(state, i, receiver, backed_off(grasp, APPROACH), f"the hand-over pre-grasp of {obj}")
+        self._reach(state, i, receiver, grasp, f"the hand-over grasp of {obj}", collide=False)
+        state.held[receiver] = (obj, invert(grasp) @ state.poses[obj])
+        del state.held[giver]
+
+    def _terminal(self, state: _State, i: int, step: Step) -> None:
+        tool, target = step.object, step.target
+        assert tool is not None
+        assert target is not None
+        self._require_holding(state, i, step.robot, tool)
+        kinds = [object_kind(self.world.mirror.objects[n].kind) for n in (tool, target)]
+        try:
+            if step.skill == "strike":
+                aim_strike(kinds[0], state.poses[tool], kinds[1], state.poses[target], target)
+            else:
+                aim_pour(kinds[0], state.poses[tool], kinds[1], state.poses[target], tool, target)
+        except SkillFailure as exc:
+            raise _Infeasible(i, exc.reason) from None
+
+    # -- kinematics ---------------------------------------------------------------------------
+
+    def _move_target(self, state: _State, step: Step, action: FloatArray) -> FloatArray:
+        """The hand pose a move commands (as ``gfc.sim.skills.moving.hand_target``)."""
+        world_from_target = self.world.mirror.robots[step.robot].world_from_base @ pose9_to_matrix(action)
+        if step.object is None:
+            return world_from_target
+        return world_from_target @ invert(state.held[step.robot][1])
+
+    def _hand_of(self, state: _State, robot: str) -> FloatArray:
+        obj, ee_from_object = state.held[robot]
+        return state.poses[obj] @ invert(ee_from_object)
+
+    @staticmethod
+    def _require_holding(state: _State, i: int, robot: str, obj: str) -> None:
+        if state.held.get(robot, ("",))[0] != obj:
+            raise _Infeasible(i, f"{robot} does not hold {obj} here")
+
+    def _reach(
+        self,
+        state: _State,
+        i: int,
+        robot: str,
+        world_from_ee: FloatArray,
+        what: str,
+        allowed: set[tuple[str, str]] | frozenset[tuple[str, str]] = frozenset(),
+        collide: bool = True,
+        ignore_others: bool = False,
+    ) -> None:
+        """Find an IK solution for ``robot`` (others where they are) or raise; with ``collide``,
+        one that collides with nothing. The executors check collisions only where they plan a
+        motion (pre-grasps, moves, above a placement); the straight lines that follow (approach,
+        grasp, lift, descent) may touch, so those poses are screened for IK alone."""
+        mirror = self.world.mirror
+        for name, pose in state.poses.items():
+            place_in_mirror(mirror, name, pose)
+        for name, q in state.joints.items():
+            if name != robot:
+                set_joints(mirror.client, mirror.robots[name], q, OPEN)
+        carried = [Carried(r, o, e) for r, (o, e) in state.held.items() if r == robot]
+        # Objects held by the other arm stay put at their (already placed) poses.
+        if ignore_others:
+            mine = {robot, *(o for o, _ in ([state.held[robot]] if robot in state.held else []))}
+            theirs = {r for r in state.joints if r != robot}
+            theirs |= {state.held[r][0] for r in theirs if r in state.held}
+            allowed = set(allowed) | {(a, b) for a in mine for b in theirs}
+        check = make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, frozenset(allowed))
+        base_from_ee = invert(mirror.robots[robot].world_from_base) @ world_from_ee
+        aimed = np.asarray(HOME_JOINTS, dtype=np.float64).copy()
+        aimed[0] = float(np.arctan2(base_from_ee[1, 3], base_from_ee[0, 3]))
+        # Seeded first: the current joints, home aimed at the target, home, and the latest
+        # solutions found for this arm (candidates of one plan ask for similar poses, and side
+        # grasps are hard to find from random starts); then random starts.
+        seeds = [state.joints[robot], aimed, np.asarray(HOME_JOINTS, dtype=np.float64), *self.solved[robot]]
+        hit_any = ""
+        for attempt in range(len(seeds) + IK_RANDOM_CALLS):
+            seeded = attempt < len(seeds)
+            seed = seeds[attempt] if seeded else self.rng.uniform(LOWER_LIMITS, UPPER_LIMITS)
+            solution = solve_ik(self.world, robot, world_from_ee, seed, self.rng, restarts=0 if seeded else 3)
+            if solution is None:
+                continue
+            hit = check(solution) if collide else None
+            if hit is None:
+                state.joints[robot] = solution
+                if not seeded or attempt >= 3:
+                    self.solved[robot] = [solution, *self.solved[robot]][:REMEMBERED]
+                return
+            hit_any = hit_any or f"{hit.moving} with {hit.other}"
+        p = world_from_ee[:3, 3]
+        why = f"every IK solution collides ({hit_any})" if hit_any else "no IK solution"
+        raise _Infeasible(i, f"{robot}: {why} for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
+
+    def _check_together(self, state: _State, i: int, robots: list[str]) -> None:
+        mirror = self.world.mirror
+        for name, pose in state.poses.items():
+            place_in_mirror(mirror, name, pose)
+        carried = [Carried(r, o, e) for r, (o, e) in state.held.items() if r in robots]
+        check = make_collision_fn(self.world, robots, carried, dict.fromkeys(robots, 2 * OPEN))
+        hit = check(np.concatenate([state.joints[r] for r in robots]))
+        if hit is not None:
+            raise _Infeasible(i, f"the move targets collide: {hit.moving} with {hit.other}")
+
+
+def screen_order(
+    plan: PlanRequest, candidates: Sequence[Sequence[FloatArray | None]], keep: int, seed: int = 0
+) -> tuple[list[int], list[Verdict | None]]:
+    """Candidate indices re-ordered: those that pass the screen first (in their given order),
+    then the rest (in their given order). Screening stops once ``keep`` have passed; unscreened
+    candidates get verdict ``None`` and keep their place after the passed ones."""
+    verdicts: list[Verdict | None] = [None] * len(candidates)
+    passed: list[int] = []
+    with Screen(plan, seed) as screen:
+        for k, actions in enumerate(candidates):
+            if len(passed) >= keep:
+                break
+            verdicts[k] = screen.check(actions)
+            if verdicts[k].feasible:  # type: ignore[union-attr]
+                passed.append(k)
+    rest = [k for k in range(len(candidates)) if k not in passed]
+    return passed + rest, verdicts

@@ -1,0 +1,93 @@
+"""The kinematic screen: what the simulator executes passes it; what the arms cannot reach, or a
+terminal step whose precondition fails, does not; the ranking puts passing candidates first."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gfc.geometry import FloatArray
+from gfc.sim.screen import Screen, screen_order
+from gfc.tasks import TASKS, sample_task
+
+SCENES = 4
+
+
+def _reference(task: str, seed: int) -> list[FloatArray | None]:
+    return [
+        None if a is None else np.asarray(a, dtype=np.float64)
+        for a in sample_task(task, seed).reference_actions
+    ]
+
+
+def _step_of(task: str, skill: str, obj: str | None = None) -> int:
+    skeleton = sample_task(task, 0).plan.skeleton
+    return next(i for i, s in enumerate(skeleton) if s.skill == skill and (obj is None or s.object == obj))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("task", sorted(TASKS))
+def test_the_reference_parameters_pass(task: str) -> None:
+    """They succeed in the simulator (tests/sim/test_tasks.py), so the screen must let them by."""
+    for seed in range(SCENES):
+        with Screen(sample_task(task, seed).plan, seed) as screen:
+            verdict = screen.check(_reference(task, seed))
+        assert verdict.feasible, (seed, verdict)
+
+
+def test_a_move_target_out_of_reach_fails_at_that_step() -> None:
+    task = "hammer_place"
+    actions = _reference(task, 0)
+    move = _step_of(task, "move", "hammer")
+    far = actions[move]
+    assert far is not None
+    far = far.copy()
+    far[:3] += [1.5, 0.0, 0.0]  # 1.5 m further out than the reference: no arm reaches it
+    actions[move] = far
+    with Screen(sample_task(task, 0).plan) as screen:
+        verdict = screen.check(actions)
+    assert not verdict.feasible
+    assert verdict.step == move
+    assert "no IK solution for the move target" in verdict.reason
+
+
+def test_a_pour_from_below_the_rim_fails_at_the_pour() -> None:
+    """Both moves reachable, but the mug ends 10 cm lower than the reference puts it: the pour's
+    own precondition (the source's bottom above the target's rim) rejects it."""
+    task = "pour_cup"
+    actions = _reference(task, 0)
+    move = _step_of(task, "move", "mug")
+    low = actions[move]
+    assert low is not None
+    low = low.copy()
+    low[2] -= 0.10
+    actions[move] = low
+    with Screen(sample_task(task, 0).plan) as screen:
+        verdict = screen.check(actions)
+    assert not verdict.feasible
+    assert verdict.step == _step_of(task, "pour")
+    assert "above cup's rim" in verdict.reason
+
+
+def test_missing_actions_are_infeasible_and_wrong_lengths_are_errors() -> None:
+    task = "pot_reorientation"
+    actions = _reference(task, 0)
+    with Screen(sample_task(task, 0).plan) as screen:
+        actions[0] = None
+        assert not screen.check(actions).feasible
+        with pytest.raises(ValueError, match="actions for"):
+            screen.check(actions[:-1])
+
+
+def test_screen_order_puts_passing_candidates_first_in_their_order() -> None:
+    task = "hammer_place"
+    good = _reference(task, 0)
+    bad = list(good)
+    move = _step_of(task, "move", "hammer")
+    assert good[move] is not None
+    bad[move] = good[move] + np.array([1.5, 0, 0, 0, 0, 0, 0, 0, 0])  # type: ignore[operator]
+    order, verdicts = screen_order(sample_task(task, 0).plan, [bad, good, bad, good], keep=1)
+    assert order == [1, 0, 2, 3]
+    assert verdicts[0] is not None and not verdicts[0].feasible
+    assert verdicts[1] is not None and verdicts[1].feasible
+    assert verdicts[2] is None and verdicts[3] is None  # screening stopped after one pass

@@ -58,11 +58,17 @@ def inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
 
 
 def aligned(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
-    """The object's frame point lies over the target's (xy), at ``height`` above it if given."""
+    """The object's frame point lies over the target's (xy), at ``height`` above it if given; with
+    ``offset`` > 0, at that horizontal distance from it (the residual is then the distance's
+    error, one component instead of two). (B, 1-3)"""
     obj, target = nodes
     a = _frame_point(obj, params["object_frame"])
     b = _frame_point(target, params["target_frame"])
     r = a[..., :2] - b[..., :2]
+    offset = float(params.get("offset") or 0.0)
+    if offset > 0.0:
+        # sqrt with a floor: the distance's gradient is undefined right over the target.
+        r = torch.sqrt((r**2).sum(dim=-1, keepdim=True) + 1e-12) - offset
     if params.get("height") is not None:
         r = torch.cat([r, (a[..., 2:3] - b[..., 2:3]) - params["height"]], dim=-1)
     return r

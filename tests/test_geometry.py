@@ -97,6 +97,22 @@ def test_aligned_uses_named_frames_and_height() -> None:
     assert np.allclose(constraints.aligned([hammer, nail], params).numpy(), 0.0, atol=1e-9)
 
 
+def test_aligned_with_an_offset_measures_the_horizontal_distance() -> None:
+    """Frame points 3-4-5 cm apart in xy (and 2 cm apart in z): the residual is the distance's
+    error, whatever the direction, plus the height's."""
+    params = {"object_frame": [0, 0, 0, 0, 0, 0, 1], "target_frame": [0, 0, 0, 0, 0, 0, 1], "height": 0.02}
+    target = _node(0.5, 0.0, 0.7)
+    for angle in (0.0, 1.0, 2.5):
+        obj = _node(0.5 + 0.05 * math.cos(angle), 0.05 * math.sin(angle), 0.72)
+        on_circle = constraints.aligned([obj, target], {**params, "offset": 0.05}).numpy()
+        assert np.allclose(on_circle, 0.0, atol=1e-6)
+        inside = constraints.aligned([obj, target], {**params, "offset": 0.02}).numpy()
+        assert np.allclose(inside, [[0.03, 0.0]], atol=1e-6)
+    # without an offset: the xy difference itself (two components)
+    obj = _node(0.53, 0.04, 0.72)
+    assert np.allclose(constraints.aligned([obj, target], params).numpy(), [[0.03, 0.04, 0.0]], atol=1e-6)
+
+
 def test_yaw_residual_wraps_around() -> None:
     r = constraints.yaw([_node(0, 0, 0, math.radians(179))], {"yaw": math.radians(-179)})
     assert float(r) == pytest.approx(math.radians(-2), abs=1e-9)

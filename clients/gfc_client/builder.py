@@ -75,10 +75,12 @@ class _Factors:
         frame: str | None = None,
         target_frame: str | None = None,
         height: float | None = None,
+        offset: float | None = None,
         tolerance: float | None = None,
         at: Ref = "end",
     ) -> PlanBuilder:
-        """A frame of ``object`` lies over a frame of ``target`` (optionally ``height`` above)."""
+        """A frame of ``object`` lies over a frame of ``target`` (optionally ``height`` above, and
+        ``offset`` metres from it horizontally)."""
         return self.add(
             "aligned",
             object=object,
@@ -86,6 +88,7 @@ class _Factors:
             frame=frame,
             target_frame=target_frame,
             height=height,
+            offset=offset,
             tolerance=tolerance,
             at=at,
         )

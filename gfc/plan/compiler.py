@@ -557,6 +557,7 @@ class _Compiler:
                 object_frame=list(f1),
                 target_frame=list(f2),
                 height=spec.height,
+                offset=spec.offset,
                 tolerance=spec.tolerance,
             )
         elif isinstance(spec, FixedTransform):

@@ -126,7 +126,8 @@ class Inside(_SpatialBase):
 
 
 class Aligned(_SpatialBase):
-    """A frame of the object lies over a frame of the target (xy), optionally at a height."""
+    """A frame of the object lies over a frame of the target (xy), optionally at a height; with
+    ``offset``, that far from it horizontally (on a circle around it, in any direction)."""
 
     type: Literal["aligned"]
     object: Name
@@ -134,6 +135,9 @@ class Aligned(_SpatialBase):
     frame: Name | None = None
     target_frame: Name | None = None
     height: Annotated[float, Field(ge=-1.0, le=1.0, allow_inf_nan=False)] | None = None
+    offset: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = Field(
+        0.0, description="horizontal distance between the two frame points, m (0: right over it)"
+    )
     tolerance: Annotated[float, Field(gt=0.0, le=1.0)] = 0.01
 
 

@@ -42,8 +42,10 @@ def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
         a = _frame(world, spec.object, spec.frame)[:3, 3]
         b = _frame(world, spec.target, spec.target_frame)[:3, 3]
         xy = float(np.linalg.norm(a[:2] - b[:2]))
-        ok = xy <= spec.tolerance
+        ok = abs(xy - spec.offset) <= spec.tolerance
         text = f"aligned({spec.object}, {spec.target}): {xy * 100:.1f} cm apart in xy"
+        if spec.offset:
+            text += f" (want {spec.offset * 100:.1f})"
         if spec.height is not None:
             dz = float(a[2] - b[2])
             ok = ok and abs(dz - spec.height) <= spec.tolerance

@@ -31,6 +31,10 @@ BEADS = 6
 # m the lip stops short of the cup's centre: the contents leave it moving towards the cup.
 LIP_SHORT = 0.0135
 CLEARANCE = 0.035  # m between the cup's rim and the mug's bottom when the pour starts
+_MUG, _CUP = object_kind("mug"), object_kind("cup")
+assert _MUG.inner_half_extents is not None
+MEET_OFFSET = round(_MUG.inner_half_extents[0] + 0.01, 3)  # m between the rims' centres, in xy
+MEET_HEIGHT = round(_MUG.frames["rim"][2] + CLEARANCE, 3)  # m from the cup's rim up to the mug's
 # Side grasps, fingers across the body, the hand's x axis up (columns: the hand's x, y, z axes).
 # The mug is taken high, approaching along its -x (the handle on the far side); the cup low,
 # approaching along its +y, so the two forearms come from different sides when they meet.
@@ -63,12 +67,18 @@ def sample(seed: int) -> TaskInstance:
             ],
             "constraints": [
                 {
+                    # The pour's precondition as a constraint: the mug's rim centre a little
+                    # more than the mug's inner radius from the cup's (so its lip, the rim point
+                    # towards the cup, is over the cup's opening) and high enough that the mug's
+                    # bottom clears the cup's rim by CLEARANCE.
                     "type": "aligned",
                     "object": "mug",
                     "frame": "rim",
                     "target": "cup",
                     "target_frame": "rim",
-                    "tolerance": 0.04,
+                    "offset": MEET_OFFSET,
+                    "height": MEET_HEIGHT,
+                    "tolerance": 0.01,
                     "at": "meet",
                 },
             ],

@@ -8,6 +8,7 @@ moves with separate objects are planned together in 14-DoF joint space.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -35,6 +36,7 @@ from gfc.sim.skills.motions import (
     collision_fn,
     ee,
     free_ik,
+    free_ik_solutions,
     held_offset_error,
     joints,
     require_free,
@@ -96,6 +98,20 @@ def _ignoring(ctx: SkillContext, robot: str, robots: Sequence[str]) -> frozenset
     theirs = {r for r in robots if r != robot}
     theirs |= {ctx.world.grasps[r].object for r in theirs if r in ctx.world.grasps}
     return frozenset((a, b) for a in mine for b in theirs)
+
+
+def _free_pair(
+    ctx: SkillContext, robots: Sequence[str], options: Sequence[Sequence[FloatArray]]
+) -> list[FloatArray]:
+    """The first combination of the arms' IK solutions (best first) that is free together."""
+    check = collision_fn(ctx, robots)
+    hit = None
+    for combo in itertools.product(*options):
+        hit = check(np.concatenate(combo))
+        if hit is None:
+            return list(combo)
+    assert hit is not None
+    raise SkillFailure(FailureType.PATH, f"the move targets collide: {hit.moving} with {hit.other}")
 
 
 def group_pick(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[FloatArray]) -> str:
@@ -182,14 +198,11 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
         # The arms move at once, so each target is solved with the other arm ignored (it will
         # not stay where it is now); then the two goals are checked together, and the joint
         # path between is planned for both.
-        goals = [
-            _solo_goal(ctx, r, t, "the move target", _ignoring(ctx, r, robots))
+        options = [
+            free_ik_solutions(ctx, r, t, collision_fn(ctx, [r], _ignoring(ctx, r, robots)), "the move target")
             for r, t in zip(robots, targets, strict=True)
         ]
-        hit = collision_fn(ctx, robots)(np.concatenate(goals))
-        if hit is not None:
-            raise SkillFailure(FailureType.PATH, f"the move targets collide: {hit.moving} with {hit.other}")
-        _plan_together(ctx, robots, goals, "the move targets")
+        _plan_together(ctx, robots, _free_pair(ctx, robots, options), "the move targets")
     for r, t in zip(robots, targets, strict=True):
         dp, _ = pose_error(ee(ctx, r), t)
         if dp > 0.015:

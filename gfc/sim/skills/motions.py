@@ -113,6 +113,19 @@ def free_ik(
     the one farthest from the joint limits wins: a straight lift or a pour that follows must not
     start at a limit.
     """
+    return free_ik_solutions(ctx, robot, world_from_ee, check, what, follow)[0]
+
+
+def free_ik_solutions(
+    ctx: SkillContext,
+    robot: str,
+    world_from_ee: FloatArray,
+    check: CollisionFn,
+    what: str,
+    follow: Sequence[FloatArray] = (),
+) -> list[FloatArray]:
+    """Up to ``IK_CANDIDATES`` collision-free IK solutions, farthest from the joint limits first;
+    raises as ``free_ik`` when there is none."""
     current = joints(ctx, robot)
     seeds = [current, aimed_home(ctx, robot, world_from_ee), np.asarray(HOME_JOINTS)]
     found: list[FloatArray] = []
@@ -136,7 +149,7 @@ def free_ik(
         else:
             collisions.append(f"{hit.moving} with {hit.other}")
     if found:
-        return max(found, key=limit_margin)
+        return sorted(found, key=limit_margin, reverse=True)
     if dead_ends:
         raise SkillFailure(
             FailureType.METHOD,

@@ -26,7 +26,7 @@ ALIASES_DIR = "aliases"
 AUDIT_DIR = "audit"
 MAX_RECORD_BYTES = 64 * 1024
 
-AuditEvent = Literal["published", "alias_moved", "alias_removed"]
+AuditEvent = Literal["published", "alias_moved", "alias_removed", "pruned"]
 
 
 class AliasRecord(BaseModel):

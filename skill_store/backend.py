@@ -87,6 +87,14 @@ class StoreBackend:
     def remove_file(self, *parts: str) -> None:
         self.fs.rm_file(self.path(*parts))
 
+    def remove_folder(self, *parts: str) -> None:
+        """Remove an empty folder (its files removed first, by the caller). Object stores have
+        no folders of their own: one goes with its last file, so a missing one is fine."""
+        try:
+            self.fs.rmdir(self.path(*parts))
+        except FileNotFoundError:
+            pass
+
     def publish_folder(self, files: dict[str, bytes], commit_file: str, *parts: str) -> None:
         """Make a folder with these files appear; ``commit_file`` is written last and marks it done.
 

@@ -1,4 +1,4 @@
-"""``gfc skills ...``: list, show, push, pull, verify and alias skill versions.
+"""``gfc skills ...``: list, show, push, pull, verify, prune and alias skill versions.
 
 Every command takes ``--store PATH_OR_URL`` (or ``GFC_SKILL_STORE``); the default is the library
 shipped inside the package, which may be empty.
@@ -210,6 +210,38 @@ def verify(
     out.print(f"{len(results)} checked, {failed} failed", highlight=False)
     if failed:
         raise typer.Exit(1)
+
+
+@skills_app.command()
+def prune(
+    names: Annotated[list[str] | None, typer.Argument(help="Skills to prune (default: every skill).")] = None,
+    keep: Annotated[int, typer.Option(min=1, help="Newest versions to keep per skill.")] = 1,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Only say what would be removed.")] = False,
+    reason: Annotated[str | None, typer.Option(help="Why, for the audit log.")] = None,
+    store: Store = DEFAULT_STORE,
+) -> None:
+    """Remove superseded versions: all but the newest KEEP of each skill. Versions an alias
+    points at always stay; each removal is logged in the skill's audit log, and a removed
+    version's number is never reused.
+
+    Examples:
+
+      gfc skills prune --dry-run               # what would go, store-wide
+
+      gfc skills prune pick.pot --keep 2 --reason "v1-v3 superseded by the bigger budget"
+    """
+    try:
+        skill_store = SkillStore(store)
+        total = 0
+        for name in names or skill_store.skills():
+            gone = skill_store.prunable(name, keep) if dry_run else skill_store.prune(name, keep, reason)
+            total += len(gone)
+            if gone:
+                verb = "would remove" if dry_run else "removed"
+                out.print(f"{name}: {verb} {', '.join(f'@{v}' for v in gone)}", highlight=False)
+    except SkillStoreError as error:
+        raise _fail(error) from None
+    out.print(f"{total} version(s) {'to remove' if dry_run else 'removed'}", highlight=False)
 
 
 @skills_app.command("alias")

@@ -302,6 +302,32 @@ class SkillStore:
             raise SkillNotFoundError(f"{name} has no alias {alias!r} in {self.location}")
         return entry
 
+    def prunable(self, name: str, keep: int = 1) -> list[int]:
+        """Versions ``prune`` would remove: all but the newest ``keep``, except aliased ones."""
+        if keep < 1:
+            raise ValueError(f"keep must be at least 1 (the latest version always stays), got {keep}")
+        versions = self.versions(name)
+        aliased = set(self.aliases(name).values())
+        return [v for v in versions[:-keep] if v not in aliased]
+
+    def prune(self, name: str, keep: int = 1, reason: str | None = None) -> list[int]:
+        """Remove superseded versions of a skill (``prunable``), logging each in the audit log.
+
+        The manifest goes first, so a version disappears at once for readers; its number stays
+        claimed and is never handed out again. Returns the versions removed."""
+        removed = []
+        for version in self.prunable(validate_name(name), keep):
+            entry = AuditEntry(
+                at=utc_now(), event="pruned", name=name, version=version, actor=current_actor(), reason=reason
+            )
+            append_audit(self.backend, entry)
+            self.backend.remove_file(name, str(version), MANIFEST_FILE)
+            for file in self.backend.list_names(name, str(version)):
+                self.backend.remove_file(name, str(version), file)
+            self.backend.remove_folder(name, str(version))
+            removed.append(version)
+        return removed
+
     def _claim_next_version(self, name: str) -> int:
         """Allocate a version number no other publisher can get: exclusive-create a claim file.
 

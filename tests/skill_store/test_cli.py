@@ -105,7 +105,24 @@ def test_bad_names_fail_with_a_message_not_a_traceback(published: SkillStore) ->
     assert code == 1 and "invalid skill name" in output
 
 
-@pytest.mark.parametrize("command", ["list", "show", "push", "pull", "verify", "alias"])
+def test_prune_keeps_the_newest_and_aliased_versions_and_never_reuses_numbers(published: SkillStore) -> None:
+    published.publish("pick.hammer", random_model(2), {"seed": 2})  # versions 1, 2, 3
+    published.set_alias("pick.hammer@1", "production")
+    code, output = gfc_skills("prune", "--dry-run", "--store", published.location)
+    assert code == 0 and "pick.hammer: would remove @2" in output
+    assert published.versions("pick.hammer") == (1, 2, 3)  # a dry run removes nothing
+    code, output = gfc_skills("prune", "pick.hammer", "--reason", "superseded", "--store", published.location)
+    assert code == 0 and "removed @2" in output, output
+    assert published.versions("pick.hammer") == (1, 3)
+    assert published.load("pick.hammer@1") is not None  # the aliased one is whole
+    pruned = [e for e in published.audit_log("pick.hammer") if e.event == "pruned"]
+    assert [(e.version, e.reason) for e in pruned] == [(2, "superseded")]
+    assert published.publish("pick.hammer", random_model(3), {"seed": 3}) == 4  # 2 stays taken
+    with pytest.raises(ValueError, match="at least 1"):
+        published.prune("pick.hammer", keep=0)
+
+
+@pytest.mark.parametrize("command", ["list", "show", "push", "pull", "verify", "alias", "prune"])
 def test_help_teaches_with_examples(command: str) -> None:
     code, output = gfc_skills(command, "--help")
     assert code == 0 and "Examples" in output and f"gfc skills {command}" in output

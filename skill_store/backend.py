@@ -23,6 +23,7 @@ so a half-copied folder (someone ``cp -r``-ing into the store by hand) is never 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import posixpath
 import threading
@@ -90,10 +91,8 @@ class StoreBackend:
     def remove_folder(self, *parts: str) -> None:
         """Remove an empty folder (its files removed first, by the caller). Object stores have
         no folders of their own: one goes with its last file, so a missing one is fine."""
-        try:
+        with contextlib.suppress(FileNotFoundError):
             self.fs.rmdir(self.path(*parts))
-        except FileNotFoundError:
-            pass
 
     def publish_folder(self, files: dict[str, bytes], commit_file: str, *parts: str) -> None:
         """Make a folder with these files appear; ``commit_file`` is written last and marks it done.

@@ -9,7 +9,9 @@ regrasp actions, and each step's key hand poses (pre-grasp, grasp, lift, move ta
 placement, placement) must have an IK solution that collides with nothing, the other arm
 standing where its last screened pose left it. Nothing is stepped, nothing moves by physics: a
 pass says "kinematically possible", not "succeeds". Physics (types 3: slips, resting poses) and
-motion planning between the poses are left to the simulator.
+motion planning between the poses are left to the simulator, except one cheap proxy for the
+commonest physics failure: at each grasp the fingers are closed kinematically and must both
+meet the object on their way in.
 
 Strike and pour have no action: their geometric preconditions (``aim_strike``, ``aim_pour``:
 the head over the nail, the lip over the cup) are checked on the screened poses, the same
@@ -24,6 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import object_kind
@@ -32,7 +35,7 @@ from gfc.sim.collision import Carried, make_collision_fn
 from gfc.sim.execute import stages
 from gfc.sim.ik import solve_ik
 from gfc.sim.outcome import SkillFailure
-from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, set_joints
+from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX, HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, set_joints
 from gfc.sim.skills.grasping import pre_grasp
 from gfc.sim.skills.motions import APPROACH, LIFT, backed_off, translated
 from gfc.sim.skills.placing import PLACE_APPROACH
@@ -41,6 +44,8 @@ from gfc.sim.world import World, build_world, object_matrix, place_in_mirror
 
 SCREENED = frozenset({"pick", "place", "move", "regrasp", "strike", "pour"})
 IK_RANDOM_CALLS = 16  # IK calls after the seeded ones, each from four random starts
+CLOSING = tuple(FINGER_MAX * k / 8 for k in range(8, -1, -1))  # finger positions, open to shut
+FINGER_REACH = 0.002  # m: a finger this close to the object meets it
 REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
 OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
 
@@ -129,6 +134,7 @@ class Screen:
                 grasp = state.poses[s.object] @ pose9_to_matrix(a)
                 self._reach(state, i, s.robot, backed_off(grasp, APPROACH), "its pre-grasp")
                 self._reach(state, i, s.robot, grasp, "its grasp", collide=False)
+                self._fingers_meet(state, i, s.robot, s.object)
                 grasps.append(grasp)
             for s, grasp in zip(steps, grasps, strict=True):
                 assert s.object is not None
@@ -157,6 +163,7 @@ class Screen:
         grasp = state.poses[obj] @ pose9_to_matrix(action)
         self._reach(state, i, step.robot, pre_grasp(grasp), f"the pre-grasp of {obj}")
         self._reach(state, i, step.robot, grasp, f"the grasp of {obj}", collide=False)
+        self._fingers_meet(state, i, step.robot, obj)
         state.held[step.robot] = (obj, invert(grasp) @ state.poses[obj])
         state.poses[obj] = translated(state.poses[obj], [0.0, 0.0, LIFT])
         self._reach(
@@ -193,6 +200,7 @@ class Screen:
         receiver = step.robot
         self._reach(state, i, receiver, backed_off(grasp, APPROACH), f"the hand-over pre-grasp of {obj}")
         self._reach(state, i, receiver, grasp, f"the hand-over grasp of {obj}", collide=False)
+        self._fingers_meet(state, i, receiver, obj)
         state.held[receiver] = (obj, invert(grasp) @ state.poses[obj])
         del state.held[giver]
 
@@ -281,6 +289,30 @@ class Screen:
         p = world_from_ee[:3, 3]
         why = f"every IK solution collides ({hit_any})" if hit_any else "no IK solution"
         raise _Infeasible(i, f"{robot}: {why} for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
+
+    def _fingers_meet(self, state: _State, i: int, robot: str, obj: str) -> None:
+        """Close the fingers kinematically at the grasp (the arm where ``_reach`` left it): each
+        finger must meet the object on its way in, or the object is not between them and the
+        real fingers close on nothing (type 3 in execution).
+
+        Only that: a centring test (both fingers meeting at about the same opening) was tried
+        and dropped; on the pot's handles the working grasps are not the centred ones."""
+        mirror = self.world.mirror
+        panda, body = mirror.robots[robot], mirror.objects[obj].body
+        place_in_mirror(mirror, obj, state.poses[obj])
+        missing = set(FINGER_JOINTS)
+        for position in CLOSING:
+            set_joints(mirror.client, panda, state.joints[robot], position)
+            missing = {
+                finger
+                for finger in missing
+                if not pb.getClosestPoints(
+                    panda.body, body, FINGER_REACH, linkIndexA=finger, physicsClientId=mirror.client
+                )
+            }
+            if not missing:
+                return
+        raise _Infeasible(i, f"{robot}: closing at the grasp, the fingers would miss {obj}")
 
     def _check_together(self, state: _State, i: int, robots: list[str]) -> None:
         mirror = self.world.mirror

@@ -69,6 +69,23 @@ def test_a_pour_from_below_the_rim_fails_at_the_pour() -> None:
     assert "above cup's rim" in verdict.reason
 
 
+def test_a_grasp_beside_the_object_fails_because_the_fingers_would_miss() -> None:
+    """The pot reference grasps its handle; 6 cm further out along the handle's axis of closing
+    (the pot's y) the open fingers straddle only air."""
+    task = "pot_reorientation"
+    actions = _reference(task, 0)
+    grasp = actions[0]
+    assert grasp is not None
+    grasp = grasp.copy()
+    grasp[1] += 0.06
+    actions[0] = grasp
+    with Screen(sample_task(task, 0).plan) as screen:
+        verdict = screen.check(actions)
+    assert not verdict.feasible
+    assert verdict.step == 0
+    assert "the fingers would miss pot" in verdict.reason
+
+
 def test_missing_actions_are_infeasible_and_wrong_lengths_are_errors() -> None:
     task = "pot_reorientation"
     actions = _reference(task, 0)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from gfc.geometry import FloatArray
-from gfc.sim.screen import Screen, screen_order
+from gfc.sim.screen import Screen, Verdict, screen_order
 from gfc.tasks import TASKS, sample_task
 
 SCENES = 4
@@ -35,17 +35,21 @@ def test_the_reference_parameters_pass(task: str) -> None:
         assert verdict.feasible, (seed, verdict)
 
 
-def test_a_move_target_out_of_reach_fails_at_that_step() -> None:
-    task = "hammer_place"
+def _screen_shifted(task: str, step: int, axis: int, by: float) -> Verdict:
+    """Screen the reference of scene 0 with one action value of one step shifted."""
     actions = _reference(task, 0)
-    move = _step_of(task, "move", "hammer")
-    far = actions[move]
-    assert far is not None
-    far = far.copy()
-    far[:3] += [1.5, 0.0, 0.0]  # 1.5 m further out than the reference: no arm reaches it
-    actions[move] = far
+    changed = actions[step]
+    assert changed is not None
+    changed = changed.copy()
+    changed[axis] += by
+    actions[step] = changed
     with Screen(sample_task(task, 0).plan) as screen:
-        verdict = screen.check(actions)
+        return screen.check(actions)
+
+
+def test_a_move_target_out_of_reach_fails_at_that_step() -> None:
+    move = _step_of("hammer_place", "move", "hammer")
+    verdict = _screen_shifted("hammer_place", move, 0, 1.5)  # 1.5 m further out: no arm reaches it
     assert not verdict.feasible
     assert verdict.step == move
     assert "no IK solution for the move target" in verdict.reason
@@ -54,33 +58,16 @@ def test_a_move_target_out_of_reach_fails_at_that_step() -> None:
 def test_a_pour_from_below_the_rim_fails_at_the_pour() -> None:
     """Both moves reachable, but the mug ends 10 cm lower than the reference puts it: the pour's
     own precondition (the source's bottom above the target's rim) rejects it."""
-    task = "pour_cup"
-    actions = _reference(task, 0)
-    move = _step_of(task, "move", "mug")
-    low = actions[move]
-    assert low is not None
-    low = low.copy()
-    low[2] -= 0.10
-    actions[move] = low
-    with Screen(sample_task(task, 0).plan) as screen:
-        verdict = screen.check(actions)
+    verdict = _screen_shifted("pour_cup", _step_of("pour_cup", "move", "mug"), 2, -0.10)
     assert not verdict.feasible
-    assert verdict.step == _step_of(task, "pour")
+    assert verdict.step == _step_of("pour_cup", "pour")
     assert "above cup's rim" in verdict.reason
 
 
 def test_a_grasp_beside_the_object_fails_because_the_fingers_would_miss() -> None:
-    """The pot reference grasps its handle; 6 cm further out along the handle's axis of closing
-    (the pot's y) the open fingers straddle only air."""
-    task = "pot_reorientation"
-    actions = _reference(task, 0)
-    grasp = actions[0]
-    assert grasp is not None
-    grasp = grasp.copy()
-    grasp[1] += 0.06
-    actions[0] = grasp
-    with Screen(sample_task(task, 0).plan) as screen:
-        verdict = screen.check(actions)
+    """The pot reference grasps its handle; 6 cm further out along the pot's y (the fingers'
+    closing direction) the open fingers straddle only air."""
+    verdict = _screen_shifted("pot_reorientation", 0, 1, 0.06)
     assert not verdict.feasible
     assert verdict.step == 0
     assert "the fingers would miss pot" in verdict.reason
@@ -102,7 +89,7 @@ def test_screen_order_puts_passing_candidates_first_in_their_order() -> None:
     bad = list(good)
     move = _step_of(task, "move", "hammer")
     assert good[move] is not None
-    bad[move] = good[move] + np.array([1.5, 0, 0, 0, 0, 0, 0, 0, 0])  # type: ignore[operator]
+    bad[move] = good[move] + np.array([1.5, 0, 0, 0, 0, 0, 0, 0, 0])
     order, verdicts = screen_order(sample_task(task, 0).plan, [bad, good, bad, good], keep=1)
     assert order == [1, 0, 2, 3]
     assert verdicts[0] is not None and not verdicts[0].feasible

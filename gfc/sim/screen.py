@@ -22,7 +22,7 @@ rest.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -128,20 +128,14 @@ class Screen:
             ](state, i, step, action)
             return
         if {s.skill for s in steps} == {"pick"}:
-            grasps = []
+            # As the executor: every hand grasps (approaching straight back along its axis), then
+            # all lift together.
             for i, s, a in zip(stage, steps, actions, strict=True):
                 assert s.object is not None
-                grasp = state.poses[s.object] @ pose9_to_matrix(a)
-                self._reach(state, i, s.robot, backed_off(grasp, APPROACH), "its pre-grasp")
-                self._reach(state, i, s.robot, grasp, "its grasp", collide=False)
-                self._fingers_meet(state, i, s.robot, s.object)
-                grasps.append(grasp)
-            for s, grasp in zip(steps, grasps, strict=True):
-                assert s.object is not None
+                grasp = self._grasp(state, i, s.robot, s.object, a, lambda g: backed_off(g, APPROACH))
                 state.held[s.robot] = (s.object, invert(grasp) @ state.poses[s.object])
-            first = steps[0].object
-            assert first is not None
-            state.poses[first] = translated(state.poses[first], [0.0, 0.0, LIFT])
+            for obj in {s.object for s in steps if s.object is not None}:
+                state.poses[obj] = translated(state.poses[obj], [0.0, 0.0, LIFT])
             for i, s in zip(stage, steps, strict=True):
                 self._reach(state, i, s.robot, self._hand_of(state, s.robot), "the lift", collide=False)
             return
@@ -160,15 +154,30 @@ class Screen:
     def _pick(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
         obj = step.object
         assert obj is not None
-        grasp = state.poses[obj] @ pose9_to_matrix(action)
-        self._reach(state, i, step.robot, pre_grasp(grasp), f"the pre-grasp of {obj}")
-        self._reach(state, i, step.robot, grasp, f"the grasp of {obj}", collide=False)
-        self._fingers_meet(state, i, step.robot, obj)
+        grasp = self._grasp(state, i, step.robot, obj, action, pre_grasp)
         state.held[step.robot] = (obj, invert(grasp) @ state.poses[obj])
         state.poses[obj] = translated(state.poses[obj], [0.0, 0.0, LIFT])
         self._reach(
             state, i, step.robot, self._hand_of(state, step.robot), f"the lift of {obj}", collide=False
         )
+
+    def _grasp(
+        self,
+        state: _State,
+        i: int,
+        robot: str,
+        obj: str,
+        action: FloatArray,
+        approach_from: Callable[[FloatArray], FloatArray],
+    ) -> FloatArray:
+        """Screen a grasp of ``obj`` (``action``: the grasp in the object's frame): the pose the
+        approach starts from (collision-checked), the grasp (IK only: the approach may touch),
+        the fingers closing on it. Returns the grasp's world pose."""
+        grasp = state.poses[obj] @ pose9_to_matrix(action)
+        self._reach(state, i, robot, approach_from(grasp), f"the pre-grasp of {obj}")
+        self._reach(state, i, robot, grasp, f"the grasp of {obj}", collide=False)
+        self._fingers_meet(state, i, robot, obj)
+        return grasp
 
     def _place(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
         obj, target = step.object, step.target
@@ -196,11 +205,8 @@ class Screen:
         assert obj is not None
         assert giver is not None
         self._require_holding(state, i, giver, obj)
-        grasp = state.poses[obj] @ pose9_to_matrix(action)
         receiver = step.robot
-        self._reach(state, i, receiver, backed_off(grasp, APPROACH), f"the hand-over pre-grasp of {obj}")
-        self._reach(state, i, receiver, grasp, f"the hand-over grasp of {obj}", collide=False)
-        self._fingers_meet(state, i, receiver, obj)
+        grasp = self._grasp(state, i, receiver, obj, action, lambda g: backed_off(g, APPROACH))
         state.held[receiver] = (obj, invert(grasp) @ state.poses[obj])
         del state.held[giver]
 

@@ -62,6 +62,7 @@ class World:
     physics: Bodies
     mirror: Bodies
     grasps: dict[str, Grasp] = field(default_factory=dict)  # robot -> what it holds
+    contents: dict[str, int] = field(default_factory=dict)  # container -> beads it started with
     physics_steps: int = 0
 
     @property
@@ -132,7 +133,7 @@ def build_world(scene: Scene, contents: Mapping[str, int] | None = None) -> Worl
     mirror = _populate(mirror_client, scene, with_mass=False)
     for container, count in (contents or {}).items():
         _fill(physics, container, count)
-    world = World(physics, mirror)
+    world = World(physics, mirror, contents=dict(contents or {}))
     step(world, SETTLE_STEPS)
     return world
 

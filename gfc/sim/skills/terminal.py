@@ -181,7 +181,9 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
         target,
     )
     lip, direction, target_rim = aim.lip, aim.direction, aim.target_rim
-    before = _beads_inside(world, source)
+    # Judged against what the source started with, not what is left in it now: beads spilled
+    # while carrying count as spilled.
+    before = world.contents.get(source, _beads_inside(world, source))
     # Rotate about the horizontal axis perpendicular to the pouring direction, through the lip.
     # Tipping swings the source's body up and away, so the lip is lowered meanwhile by
     # rim_height * (1 - cos(angle)) (which keeps the lowest corner of the source at its starting

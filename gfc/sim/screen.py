@@ -37,7 +37,8 @@ from gfc.sim.ik import solve_ik
 from gfc.sim.outcome import SkillFailure
 from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX, HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, set_joints
 from gfc.sim.skills.grasping import pre_grasp
-from gfc.sim.skills.motions import APPROACH, LIFT, backed_off, translated
+from gfc.sim.skills.motions import APPROACH, LIFT, aimed_home, backed_off, translated
+from gfc.sim.skills.moving import hand_for
 from gfc.sim.skills.placing import PLACE_APPROACH
 from gfc.sim.skills.terminal import aim_pour, aim_strike
 from gfc.sim.world import World, build_world, object_matrix, place_in_mirror
@@ -227,11 +228,9 @@ class Screen:
     # -- kinematics ---------------------------------------------------------------------------
 
     def _move_target(self, state: _State, step: Step, action: FloatArray) -> FloatArray:
-        """The hand pose a move commands (as ``gfc.sim.skills.moving.hand_target``)."""
-        world_from_target = self.world.mirror.robots[step.robot].world_from_base @ pose9_to_matrix(action)
-        if step.object is None:
-            return world_from_target
-        return world_from_target @ invert(state.held[step.robot][1])
+        """The hand pose a move commands, as the executor computes it."""
+        grasp = None if step.object is None else state.held[step.robot][1]
+        return hand_for(self.world.mirror.robots[step.robot].world_from_base, action, grasp)
 
     def _hand_of(self, state: _State, robot: str) -> FloatArray:
         obj, ee_from_object = state.held[robot]
@@ -249,7 +248,6 @@ class Screen:
         robot: str,
         world_from_ee: FloatArray,
         what: str,
-        allowed: set[tuple[str, str]] | frozenset[tuple[str, str]] = frozenset(),
         collide: bool = True,
         ignore_others: bool = False,
     ) -> None:
@@ -265,15 +263,14 @@ class Screen:
                 set_joints(mirror.client, mirror.robots[name], q, OPEN)
         carried = [Carried(r, o, e) for r, (o, e) in state.held.items() if r == robot]
         # Objects held by the other arm stay put at their (already placed) poses.
+        allowed: frozenset[tuple[str, str]] = frozenset()
         if ignore_others:
             mine = {robot, *(o for o, _ in ([state.held[robot]] if robot in state.held else []))}
             theirs = {r for r in state.joints if r != robot}
             theirs |= {state.held[r][0] for r in theirs if r in state.held}
-            allowed = set(allowed) | {(a, b) for a in mine for b in theirs}
-        check = make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, frozenset(allowed))
-        base_from_ee = invert(mirror.robots[robot].world_from_base) @ world_from_ee
-        aimed = np.asarray(HOME_JOINTS, dtype=np.float64).copy()
-        aimed[0] = float(np.arctan2(base_from_ee[1, 3], base_from_ee[0, 3]))
+            allowed = frozenset((a, b) for a in mine for b in theirs)
+        check = make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, allowed)
+        aimed = aimed_home(mirror.robots[robot].world_from_base, world_from_ee)
         # Seeded first: the current joints, home aimed at the target, home, and the latest
         # solutions found for this arm (candidates of one plan ask for similar poses, and side
         # grasps are hard to find from random starts); then random starts.

@@ -90,10 +90,10 @@ def line_feasible(
     return True
 
 
-def aimed_home(ctx: SkillContext, robot: str, world_from_ee: FloatArray) -> FloatArray:
+def aimed_home(world_from_base: FloatArray, world_from_ee: FloatArray) -> FloatArray:
     """The home configuration turned (joint 1) to face the target: a natural IK start that
     keeps the elbow up and the wrist away from its limits."""
-    base_from_ee = np.linalg.inv(ctx.world.physics.robots[robot].world_from_base) @ world_from_ee
+    base_from_ee = np.linalg.inv(world_from_base) @ world_from_ee
     q = np.asarray(HOME_JOINTS, dtype=np.float64).copy()
     q[0] = float(np.arctan2(base_from_ee[1, 3], base_from_ee[0, 3]))
     return q
@@ -127,7 +127,11 @@ def free_ik_solutions(
     """Up to ``IK_CANDIDATES`` collision-free IK solutions, farthest from the joint limits first;
     raises as ``free_ik`` when there is none."""
     current = joints(ctx, robot)
-    seeds = [current, aimed_home(ctx, robot, world_from_ee), np.asarray(HOME_JOINTS)]
+    seeds = [
+        current,
+        aimed_home(ctx.world.physics.robots[robot].world_from_base, world_from_ee),
+        np.asarray(HOME_JOINTS),
+    ]
     found: list[FloatArray] = []
     collisions: list[str] = []
     dead_ends = 0

@@ -19,10 +19,18 @@ REACHED = 0.01  # m
 def hand_target(world: World, robot: str, obj: str | None, action: FloatArray) -> FloatArray:
     """World pose of the end effector that puts ``obj`` (held by ``robot``; the hand itself when
     None) at ``action``, a pose9 in the robot's base frame."""
-    world_from_target = world.physics.robots[robot].world_from_base @ pose9_to_matrix(action)
-    if obj is None:
+    grasp = None if obj is None else world.grasps[robot].ee_from_object
+    return hand_for(world.physics.robots[robot].world_from_base, action, grasp)
+
+
+def hand_for(
+    world_from_base: FloatArray, action: FloatArray, ee_from_object: FloatArray | None
+) -> FloatArray:
+    """``hand_target`` from the robot's base and the grasp (``None``: an empty hand)."""
+    world_from_target = world_from_base @ pose9_to_matrix(action)
+    if ee_from_object is None:
         return world_from_target
-    return world_from_target @ invert(world.grasps[robot].ee_from_object)
+    return world_from_target @ invert(ee_from_object)
 
 
 def move(ctx: SkillContext, step: Step, action: FloatArray) -> str:

@@ -4,10 +4,16 @@ A configuration is in collision when a moving body (an acting arm or an object o
 holds) penetrates anything by more than ``PENETRATION_TOLERANCE``: the table, the other arm,
 any object, or the arm itself (links two or more joints apart). Resting contact (the fingers on what they hold) is allowed; beads are ignored
 because they are contents, not obstacles.
+
+A held container listed in ``upright`` (one with contents) must also stay within
+``UPRIGHT_TILT`` of upright: a configuration that tilts it counts as a collision of the
+container with "tilt", so motion planning keeps it upright the whole way, as a person carries
+a full cup.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -19,6 +25,7 @@ from gfc.sim.panda import ARM_DOF, HAND_LINKS, ee_matrix, set_joints
 from gfc.sim.world import World, place_in_mirror
 
 PENETRATION_TOLERANCE = 0.002
+UPRIGHT_TILT = math.radians(25.0)  # rad a carried container with contents may tilt
 # Link pairs of one arm that can collide: two or more joints apart (link -1 is the base; link 7
 # is the massless flange, fixed to link 6 and the hand, so link 6 and the hand are neighbours;
 # the fingers may touch each other and the hand).
@@ -51,12 +58,16 @@ def make_collision_fn(
     carried: Sequence[Carried] = (),
     fingers: dict[str, float] | None = None,
     allowed: frozenset[tuple[str, str]] = frozenset(),
+    upright: frozenset[str] = frozenset(),
 ) -> CollisionFn:
     """A checker for the stacked joint vector of ``robots`` (7 per robot, in that order).
 
     ``allowed`` holds (moving, other) name pairs that may touch (a gripper and the object it is
-    about to grasp). Returns the first collision found, or ``None`` when the configuration is free.
+    about to grasp); ``upright`` the carried objects that must stay upright (a collision with
+    "tilt" otherwise). Returns the first collision found, or ``None`` when the configuration is
+    free.
     """
+    min_cos = math.cos(UPRIGHT_TILT)
     mirror = world.mirror
     client = mirror.client
     name_of_body = {r.body: n for n, r in mirror.robots.items()}
@@ -80,8 +91,14 @@ def make_collision_fn(
     def check(q: FloatArray) -> Collision | None:
         for i, r in enumerate(robots):
             set_joints(client, mirror.robots[r], q[i * ARM_DOF : (i + 1) * ARM_DOF], finger_half[r])
+        tilted = None
         for c in carried:
-            place_in_mirror(mirror, c.object, ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object)
+            world_from_object = ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object
+            place_in_mirror(mirror, c.object, world_from_object)
+            if c.object in upright and world_from_object[2, 2] < min_cos:
+                tilted = c.object
+        if tilted is not None:
+            return Collision(tilted, "tilt")
         for r in robots:
             body = mirror.robots[r].body
             for i, j in SELF_PAIRS:

@@ -97,7 +97,7 @@ def plan_motion(
     start: FloatArray,
     goal: FloatArray,
     rng: np.random.Generator,
-    timeout: float = PLANNING_TIMEOUT,
+    timeout: float | None = None,
 ) -> MotionResult:
     """A collision-free joint path from ``start`` to ``goal`` (both included), or why not."""
     began = time.perf_counter()
@@ -114,6 +114,7 @@ def plan_motion(
         )
     if first_collision_on_segment(check, start, goal, EDGE_RESOLUTION) is None:
         return MotionResult([start, goal], time.perf_counter() - began, "direct")
+    timeout = PLANNING_TIMEOUT if timeout is None else timeout
     path = _rrt_connect(check, start, goal, int(rng.integers(2**31 - 2)), timeout)
     if path is None:
         return MotionResult(None, time.perf_counter() - began, f"RRTConnect found no path in {timeout:.0f} s")

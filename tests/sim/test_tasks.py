@@ -11,11 +11,9 @@ from gfc.sim.execute import execute_plan
 from gfc.tasks import TASKS, sample_task
 
 SCENES = 20
-# How many of the SCENES scenes must succeed; all of them, except where the report says why not.
-# Pour Cup: 15. Since session 4 a pour is judged against the beads the mug started with, and
-# on 5 of these 20 scenes the reference carry spills beads before the pour (seeds 2, 3, 8, 11,
-# 12); until then only what was left in the mug counted, and all 20 passed.
-REQUIRED = {"hammer_place": 20, "hammer_nail": 20, "pot_reorientation": 20, "pour_cup": 15}
+# Every scene must succeed. (Pour Cup judges a pour against the beads the mug started with, so a
+# carry that tilts the mug fails it; carries keep a container with contents upright, see
+# gfc.sim.collision.)
 PAPER_STEPS = {"hammer_place": 8, "hammer_nail": 11, "pot_reorientation": 4, "pour_cup": 5}
 
 
@@ -44,4 +42,4 @@ def test_reference_parameters_succeed_on_sampled_scenes(task: str) -> None:
             failures.append(
                 (seed, first.step if first else None, first.reason if first else outcome.goal_report)
             )
-    assert SCENES - len(failures) >= REQUIRED[task], failures
+    assert not failures

@@ -64,7 +64,10 @@ def collision_fn(
     sync_mirror(ctx.world)
     openings = gripper_openings(ctx.world)
     fingers = {r: openings[r] if r in ctx.world.grasps else 0.08 for r in robots}
-    return make_collision_fn(ctx.world, robots, carried_by(ctx, robots), fingers, allowed)
+    carried = carried_by(ctx, robots)
+    # Containers with contents are kept upright (see gfc.sim.collision).
+    upright = frozenset(c.object for c in carried if ctx.world.contents.get(c.object, 0) > 0)
+    return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright)
 
 
 def limit_margin(q: FloatArray) -> float:

@@ -5,8 +5,8 @@ holds) penetrates anything by more than ``PENETRATION_TOLERANCE``: the table, th
 any object, or the arm itself (links two or more joints apart). Resting contact (the fingers on what they hold) is allowed; beads are ignored
 because they are contents, not obstacles.
 
-A held container listed in ``upright`` (one with contents) must also stay within
-``UPRIGHT_TILT`` of upright: a configuration that tilts it counts as a collision of the
+A held container listed in ``upright`` (one with contents) must also stay within its tilt
+limit (``UPRIGHT_TILT``, or a little more than it leans in the hand already): a configuration that tilts it counts as a collision of the
 container with "tilt", so motion planning keeps it upright the whole way, as a person carries
 a full cup.
 """
@@ -14,7 +14,7 @@ a full cup.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,16 +58,16 @@ def make_collision_fn(
     carried: Sequence[Carried] = (),
     fingers: dict[str, float] | None = None,
     allowed: frozenset[tuple[str, str]] = frozenset(),
-    upright: frozenset[str] = frozenset(),
+    upright: Mapping[str, float] | None = None,
 ) -> CollisionFn:
     """A checker for the stacked joint vector of ``robots`` (7 per robot, in that order).
 
     ``allowed`` holds (moving, other) name pairs that may touch (a gripper and the object it is
-    about to grasp); ``upright`` the carried objects that must stay upright (a collision with
-    "tilt" otherwise). Returns the first collision found, or ``None`` when the configuration is
+    about to grasp); ``upright`` the carried objects that must stay upright, each with the tilt
+    (rad) it may reach (a collision with "tilt" beyond it). Returns the first collision found, or ``None`` when the configuration is
     free.
     """
-    min_cos = math.cos(UPRIGHT_TILT)
+    min_cos = {name: math.cos(tilt) for name, tilt in (upright or {}).items()}
     mirror = world.mirror
     client = mirror.client
     name_of_body = {r.body: n for n, r in mirror.robots.items()}
@@ -95,7 +95,7 @@ def make_collision_fn(
         for c in carried:
             world_from_object = ee_matrix(client, mirror.robots[c.robot]) @ c.ee_from_object
             place_in_mirror(mirror, c.object, world_from_object)
-            if c.object in upright and world_from_object[2, 2] < min_cos:
+            if c.object in min_cos and world_from_object[2, 2] < min_cos[c.object]:
                 tilted = c.object
         if tilted is not None:
             return Collision(tilted, "tilt")

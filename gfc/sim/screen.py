@@ -15,7 +15,8 @@ meet the object on their way in.
 
 Strike and pour have no action: their geometric preconditions (``aim_strike``, ``aim_pour``:
 the head over the nail, the lip over the cup) are checked on the screened poses, the same
-functions the executors use. Push and pull are not screened: screening stops at the first of
+functions the executors use; for a pour, also that the arm can follow the tipping motion
+(``tipping_poses``) on some IK branch. Push and pull are not screened: screening stops at the first of
 them (where a pushed block ends up is not known without physics), and the candidate passes the
 rest.
 """
@@ -32,6 +33,7 @@ from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest, Step
 from gfc.sim.collision import Carried, make_collision_fn
+from gfc.sim.control import cartesian_joint_path
 from gfc.sim.execute import stages
 from gfc.sim.ik import solve_ik
 from gfc.sim.outcome import SkillFailure
@@ -40,13 +42,19 @@ from gfc.sim.skills.grasping import pre_grasp
 from gfc.sim.skills.motions import APPROACH, LIFT, aimed_home, backed_off, translated
 from gfc.sim.skills.moving import hand_for
 from gfc.sim.skills.placing import PLACE_APPROACH
-from gfc.sim.skills.terminal import aim_pour, aim_strike
+from gfc.sim.skills.terminal import aim_pour, aim_strike, tipping_poses
 from gfc.sim.world import World, build_world, object_matrix, place_in_mirror
 
 SCREENED = frozenset({"pick", "place", "move", "regrasp", "strike", "pour"})
 IK_RANDOM_CALLS = 16  # IK calls after the seeded ones, each from four random starts
 CLOSING = tuple(FINGER_MAX * k / 8 for k in range(8, -1, -1))  # finger positions, open to shut
 FINGER_REACH = 0.002  # m: a finger this close to the object meets it
+FOLLOW_RANDOM_CALLS = 8  # IK solutions from random starts tried for a pour's tipping path
+# A Panda's hand is never farther than ~0.95 m from its shoulder (joint 2, 0.333 m above the
+# base; the sum of the link offsets, and the most of 20,000 random configurations): a pose
+# beyond MAX_REACH needs no IK search (which is slow exactly when it fails).
+SHOULDER_Z = 0.333
+MAX_REACH = 0.98
 REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
 OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
 
@@ -221,9 +229,32 @@ class Screen:
             if step.skill == "strike":
                 aim_strike(kinds[0], state.poses[tool], kinds[1], state.poses[target], target)
             else:
-                aim_pour(kinds[0], state.poses[tool], kinds[1], state.poses[target], tool, target)
+                aim = aim_pour(kinds[0], state.poses[tool], kinds[1], state.poses[target], tool, target)
         except SkillFailure as exc:
             raise _Infeasible(i, exc.reason) from None
+        if step.skill == "pour":
+            poses = tipping_poses(aim, self._hand_of(state, step.robot), kinds[0].frames["rim"][2])
+            if not self._can_follow(state, step.robot, poses):
+                raise _Infeasible(i, f"{step.robot} cannot tip {tool} over {target} from any IK branch")
+
+    def _can_follow(self, state: _State, robot: str, poses: list[FloatArray]) -> bool:
+        """Whether the arm can track ``poses`` (from the first) on one IK branch: from its screened
+        joints or, as the executor turns its arm to another branch when it must, from another IK
+        solution of the first pose."""
+        mirror = self.world.mirror
+        start = poses[0]
+        seeds = [
+            state.joints[robot],
+            aimed_home(mirror.robots[robot].world_from_base, start),
+            np.asarray(HOME_JOINTS, dtype=np.float64),
+        ]
+        for attempt in range(len(seeds) + FOLLOW_RANDOM_CALLS):
+            seeded = attempt < len(seeds)
+            seed = seeds[attempt] if seeded else self.rng.uniform(LOWER_LIMITS, UPPER_LIMITS)
+            q = state.joints[robot] if attempt == 0 else solve_ik(self.world, robot, start, seed, self.rng, 0)
+            if q is not None and cartesian_joint_path(self.world, robot, q, poses, self.rng) is not None:
+                return True
+        return False
 
     # -- kinematics ---------------------------------------------------------------------------
 
@@ -269,6 +300,10 @@ class Screen:
             theirs = {r for r in state.joints if r != robot}
             theirs |= {state.held[r][0] for r in theirs if r in state.held}
             allowed = frozenset((a, b) for a in mine for b in theirs)
+        shoulder = mirror.robots[robot].world_from_base @ np.array([0.0, 0.0, SHOULDER_Z, 1.0])
+        if float(np.linalg.norm(world_from_ee[:3, 3] - shoulder[:3])) > MAX_REACH:
+            p = world_from_ee[:3, 3]
+            raise _Infeasible(i, f"{robot}: out of reach for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
         check = make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, allowed)
         aimed = aimed_home(mirror.robots[robot].world_from_base, world_from_ee)
         # Seeded first: the current joints, home aimed at the target, home, and the latest

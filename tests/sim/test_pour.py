@@ -4,13 +4,15 @@ a container with contents upright."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
-from gfc.sim.collision import Collision, make_collision_fn
+from gfc.sim.collision import UPRIGHT_TILT, Collision, make_collision_fn
 from gfc.sim.execute import execute_in_world
 from gfc.sim.skills.grasping import pick
-from gfc.sim.skills.motions import SkillContext, carried_by, collision_fn, joints
+from gfc.sim.skills.motions import LEAN_MARGIN, SkillContext, carried_by, collision_fn, joints, upright_limit
 from gfc.sim.world import build_world
 from gfc.tasks import sample_task
 
@@ -39,7 +41,7 @@ def test_a_held_container_with_contents_must_stay_upright_in_motion_planning() -
         pick(ctx, pick_mug, np.asarray(instance.reference_actions[0]))
         carried = carried_by(ctx, ["left"])
         plain = make_collision_fn(world, ["left"], carried, {"left": 0.0})
-        upright = make_collision_fn(world, ["left"], carried, {"left": 0.0}, upright=frozenset({"mug"}))
+        upright = make_collision_fn(world, ["left"], carried, {"left": 0.0}, upright={"mug": UPRIGHT_TILT})
         q = joints(ctx, "left")
         assert upright(q) is None, "the mug is upright after the pick"
         # The side grasp's approach axis is horizontal: turning the last joint (about that axis)
@@ -50,3 +52,15 @@ def test_a_held_container_with_contents_must_stay_upright_in_motion_planning() -
         assert upright(tipped) == Collision("mug", "tilt")
         # The executors' checker keeps it upright by itself: the mug holds beads.
         assert collision_fn(ctx, ["left"])(tipped) == Collision("mug", "tilt")
+
+
+def test_a_leaning_container_may_tilt_a_little_further_than_it_leans() -> None:
+    assert upright_limit(np.eye(4)) == pytest.approx(UPRIGHT_TILT)
+    leaning = np.eye(4)
+    angle = math.radians(40.0)
+    leaning[:3, :3] = [
+        [1, 0, 0],
+        [0, math.cos(angle), -math.sin(angle)],
+        [0, math.sin(angle), math.cos(angle)],
+    ]
+    assert upright_limit(leaning) == pytest.approx(angle + LEAN_MARGIN)

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from gfc.geometry import FloatArray
+from gfc.sim import screen as screen_module
 from gfc.sim.screen import Screen, Verdict, screen_order
+from gfc.sim.skills.motions import translated
 from gfc.tasks import TASKS, sample_task
 
 SCENES = 4
@@ -52,7 +54,33 @@ def test_a_move_target_out_of_reach_fails_at_that_step() -> None:
     verdict = _screen_shifted("hammer_place", move, 0, 1.5)  # 1.5 m further out: no arm reaches it
     assert not verdict.feasible
     assert verdict.step == move
+    assert "out of reach for the move target" in verdict.reason
+
+
+def test_a_move_target_near_the_edge_of_reach_is_searched_and_fails() -> None:
+    """30 cm further out passes the quick reach test but has no IK solution."""
+    move = _step_of("hammer_place", "move", "hammer")
+    verdict = _screen_shifted("hammer_place", move, 0, 0.45)
+    assert not verdict.feasible
+    assert verdict.step == move
     assert "no IK solution for the move target" in verdict.reason
+
+
+def test_a_pour_the_arm_cannot_follow_fails_at_the_pour(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reference passes; the same tipping motion carried 1.5 m up cannot be followed from
+    any IK branch, so the screen rejects the pour (as the executor would, type 1)."""
+    real = screen_module.tipping_poses
+
+    def lifted(*args: object, **kwargs: object) -> list[FloatArray]:
+        poses = real(*args, **kwargs)  # type: ignore[arg-type]
+        return [poses[0]] + [translated(p, [0.0, 0.0, 1.5]) for p in poses[1:]]
+
+    monkeypatch.setattr(screen_module, "tipping_poses", lifted)
+    with Screen(sample_task("pour_cup", 0).plan) as screen:
+        verdict = screen.check(_reference("pour_cup", 0))
+    assert not verdict.feasible
+    assert verdict.step == _step_of("pour_cup", "pour")
+    assert "cannot tip mug over cup" in verdict.reason
 
 
 def test_a_pour_from_below_the_rim_fails_at_the_pour() -> None:

@@ -4,6 +4,7 @@ straight line, and the geometric checks that turn into failure type 1."""
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -11,7 +12,7 @@ import numpy as np
 
 from gfc.geometry import FloatArray, invert
 from gfc.kinds import object_kind
-from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
+from gfc.sim.collision import UPRIGHT_TILT, Carried, CollisionFn, make_collision_fn
 from gfc.sim.control import (
     cartesian_joint_path,
     execute_paths,
@@ -29,6 +30,11 @@ from gfc.skills.signatures import PICK_LIFT
 APPROACH = 0.10  # m: pre-grasp offset back along the gripper's approach axis
 LIFT = PICK_LIFT  # m: how far a pick lifts the object
 IK_ATTEMPTS = 24
+LEAN_MARGIN = math.radians(5.0)  # rad a leaning container may tilt further while carried
+# Attempts go on up to this many times IK_ATTEMPTS while nothing is found: free solutions of
+# tight poses (a cup held low in front of the body) are rare among random starts, and the
+# screen, which searches differently, may have found one.
+IK_PERSISTENCE = 3
 IK_CANDIDATES = 6  # collision-free solutions to choose from
 IK_RANDOM_RESTARTS = 3  # random starts per attempt after the seeded ones (side grasps need many)
 
@@ -66,8 +72,19 @@ def collision_fn(
     fingers = {r: openings[r] if r in ctx.world.grasps else 0.08 for r in robots}
     carried = carried_by(ctx, robots)
     # Containers with contents are kept upright (see gfc.sim.collision).
-    upright = frozenset(c.object for c in carried if ctx.world.contents.get(c.object, 0) > 0)
+    upright = {
+        c.object: upright_limit(object_matrix(ctx.world.physics, c.object))
+        for c in carried
+        if ctx.world.contents.get(c.object, 0) > 0
+    }
     return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright)
+
+
+def upright_limit(world_from_object: FloatArray) -> float:
+    """How far (rad) a carried container may tilt: ``UPRIGHT_TILT``, or a little more than it
+    leans now (a grasp can leave it leaning, and the motion must be able to start)."""
+    now = math.acos(max(-1.0, min(1.0, float(world_from_object[2, 2]))))
+    return max(UPRIGHT_TILT, now + LEAN_MARGIN)
 
 
 def limit_margin(q: FloatArray) -> float:
@@ -138,7 +155,9 @@ def free_ik_solutions(
     found: list[FloatArray] = []
     collisions: list[str] = []
     dead_ends = 0
-    for attempt in range(IK_ATTEMPTS):
+    for attempt in range(IK_ATTEMPTS * IK_PERSISTENCE):
+        if attempt >= IK_ATTEMPTS and found:
+            break
         seed = seeds[attempt] if attempt < len(seeds) else None
         if seed is not None:
             q = solve_ik(ctx.world, robot, world_from_ee, seed, ctx.rng, restarts=0)

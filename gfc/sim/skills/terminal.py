@@ -15,8 +15,18 @@ from gfc.geometry import FloatArray, pose7_to_matrix
 from gfc.kinds import ObjectKind, object_kind
 from gfc.plan.schema import Step
 from gfc.sim.control import cartesian_joint_path, execute_paths, gripper_target
+from gfc.sim.motion import plan_motion
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.motions import SkillContext, ee, joints, require_holding, straight, translated
+from gfc.sim.skills.motions import (
+    SkillContext,
+    collision_fn,
+    ee,
+    free_ik_solutions,
+    joints,
+    require_holding,
+    straight,
+    translated,
+)
 from gfc.sim.world import World, bead_positions, object_matrix
 from gfc.sim.world import step as physics_step
 
@@ -165,6 +175,29 @@ def aim_pour(
     return PourAim(lip, direction, target_rim)
 
 
+def tipping_poses(aim: PourAim, start: FloatArray, rim_height: float) -> list[FloatArray]:
+    """The hand's poses (4x4, world) while tipping the source from the hand pose ``start``:
+    about the horizontal axis perpendicular to the pouring direction, through the lip, up to
+    ``POUR_ANGLE``. Tipping swings the source's body up and away, so the lip is lowered meanwhile
+    by rim_height * (1 - cos(angle)) (which keeps the lowest corner of the source at its starting
+    clearance) until it is POUR_LIP_LOW above the target's rim: the contents then leave the lip
+    just above the opening instead of falling from the height of the source. The screen checks
+    that the arm can follow them."""
+    lip = aim.lip
+    axis = np.cross([0.0, 0.0, 1.0], aim.direction)
+    lowest_lip = aim.target_rim[2] + POUR_LIP_LOW
+    poses = []
+    for angle in np.linspace(0.0, POUR_ANGLE, 60):
+        rot = _axis_angle(axis, float(angle))
+        tipped = min(float(angle), math.pi / 2)
+        drop = min(rim_height * (1.0 - math.cos(tipped)), max(0.0, lip[2] - lowest_lip))
+        pose = start.copy()
+        pose[:3, :3] = rot @ start[:3, :3]
+        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip) - np.array([0.0, 0.0, drop])
+        poses.append(pose)
+    return poses
+
+
 def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     """Tip the held container about its lip (the rim point nearest the target), then right it."""
     world, robot, source, target = ctx.world, step.robot, step.object, step.target
@@ -180,32 +213,14 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
         source,
         target,
     )
-    lip, direction, target_rim = aim.lip, aim.direction, aim.target_rim
     # Judged against what the source started with, not what is left in it now: beads spilled
     # while carrying count as spilled.
     before = world.contents.get(source, _beads_inside(world, source))
-    # Rotate about the horizontal axis perpendicular to the pouring direction, through the lip.
-    # Tipping swings the source's body up and away, so the lip is lowered meanwhile by
-    # rim_height * (1 - cos(angle)) (which keeps the lowest corner of the source at its starting
-    # clearance) until it is POUR_LIP_LOW above the target's rim: the contents then leave the
-    # lip just above the opening instead of falling from the height of the source.
-    axis = np.cross([0.0, 0.0, 1.0], direction)
-    rim_height = kinds[0].frames["rim"][2]
-    lowest_lip = target_rim[2] + POUR_LIP_LOW
-    start = ee(ctx, robot)
-    poses = []
-    for angle in np.linspace(0.0, POUR_ANGLE, 60):
-        rot = _axis_angle(axis, float(angle))
-        tipped = min(float(angle), math.pi / 2)
-        drop = min(rim_height * (1.0 - math.cos(tipped)), max(0.0, lip[2] - lowest_lip))
-        pose = start.copy()
-        pose[:3, :3] = rot @ start[:3, :3]
-        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip) - np.array([0.0, 0.0, drop])
-        poses.append(pose)
+    poses = tipping_poses(aim, ee(ctx, robot), kinds[0].frames["rim"][2])
+    fingers = {robot: gripper_target(world, robot)}
     path = cartesian_joint_path(world, robot, joints(ctx, robot), poses, ctx.rng)
     if path is None:
-        raise SkillFailure(FailureType.METHOD, f"{robot} cannot tip {source} that far from here")
-    fingers = {robot: gripper_target(world, robot)}
+        path = _reconfigure_for(ctx, robot, poses, f"tip {source} over {target}")
     execute_paths(world, {robot: path}, fingers, speed=POUR_SPEED)
     physics_step(world, 240)
     execute_paths(world, {robot: path[::-1]}, fingers, speed=POUR_SPEED)
@@ -216,6 +231,31 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     if landed < math.ceil(POUR_SHARE * before):
         raise SkillFailure(FailureType.PHYSICS, f"spilled: {landed} of {before} beads landed in {target}")
     return f"poured {landed} of {before} beads into {target}"
+
+
+def _reconfigure_for(ctx: SkillContext, robot: str, poses: list[FloatArray], what: str) -> list[FloatArray]:
+    """The arm cannot follow ``poses`` (which start at the hand's pose now) from its joints: the
+    tipping runs into a joint limit on this IK branch. Look for another IK solution of the same
+    hand pose from which it can, move there (a planned motion, what the hand holds kept upright
+    and clear of everything) and return the joint path of ``poses`` from it; type 1 when no
+    solution can follow them."""
+    check = collision_fn(ctx, [robot])
+    try:
+        options = free_ik_solutions(ctx, robot, poses[0], check, "the hand's pose now")
+    except SkillFailure:
+        options = []
+    for q in options:
+        path = cartesian_joint_path(ctx.world, robot, q, poses, ctx.rng)
+        if path is None:
+            continue
+        result = plan_motion(check, joints(ctx, robot), q, ctx.rng)
+        ctx.planning_s += result.planning_s
+        if result.path is None:
+            continue
+        execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)}, speed=0.5)
+        ctx.notes.append(f"{robot} turned its arm to another IK branch to {what}")
+        return cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng) or path
+    raise SkillFailure(FailureType.METHOD, f"{robot} cannot {what}: from no IK branch can it tip that far")
 
 
 def _axis_angle(axis: FloatArray, angle: float) -> FloatArray:

@@ -55,6 +55,16 @@ def _together(
     ctx: SkillContext, robots: Sequence[str], targets: Sequence[FloatArray], what: str, speed: float
 ) -> None:
     """Straight end-effector lines for several robots on one clock (no collision planning)."""
+    paths = _straight_lines(ctx, robots, targets, what, collide=False)
+    execute_paths(ctx.world, paths, {r: gripper_target(ctx.world, r) for r in robots}, speed=speed)
+
+
+def _straight_lines(
+    ctx: SkillContext, robots: Sequence[str], targets: Sequence[FloatArray], what: str, collide: bool = True
+) -> dict[str, list[FloatArray]]:
+    """Joint paths that move every hand along a straight line to its target (``what``) on one
+    clock: type 1 when a line cannot be tracked; with ``collide``, type 2 when the arms or what
+    they hold would hit something on the way."""
     starts = [ee(ctx, r) for r in robots]
     count = max(waypoint_count(a, b) for a, b in zip(starts, targets, strict=True))
     paths = {}
@@ -63,29 +73,12 @@ def _together(
         if path is None:
             raise SkillFailure(FailureType.METHOD, f"{r}: cannot follow a straight line to {what}")
         paths[r] = path
-    execute_paths(ctx.world, paths, {r: gripper_target(ctx.world, r) for r in robots}, speed=speed)
-    return None
-
-
-def _straight_lines(
-    ctx: SkillContext, robots: Sequence[str], targets: Sequence[FloatArray], what: str
-) -> dict[str, list[FloatArray]]:
-    """Joint paths that move every hand along a straight line to its target on one clock,
-    collision-free for all the arms together (type 1 when a line cannot be tracked, type 2
-    when the arms or what they hold would hit something on the way)."""
-    starts = [ee(ctx, r) for r in robots]
-    count = max(waypoint_count(a, b) for a, b in zip(starts, targets, strict=True))
-    paths = {}
-    for r, a, b in zip(robots, starts, targets, strict=True):
-        path = cartesian_joint_path(ctx.world, r, joints(ctx, r), interpolate_poses(a, b, count), ctx.rng)
-        if path is None:
-            raise SkillFailure(FailureType.METHOD, f"{r}: cannot {what} along a straight line")
-        paths[r] = path
-    check = collision_fn(ctx, robots)
-    for k in range(count):
-        hit = check(np.concatenate([paths[r][k] for r in robots]))
-        if hit is not None:
-            raise SkillFailure(FailureType.PATH, f"{what}: {hit.moving} hits {hit.other} on the way")
+    if collide:
+        check = collision_fn(ctx, robots)
+        for k in range(count):
+            hit = check(np.concatenate([paths[r][k] for r in robots]))
+            if hit is not None:
+                raise SkillFailure(FailureType.PATH, f"on the way to {what}: {hit.moving} hits {hit.other}")
     return paths
 
 
@@ -228,7 +221,7 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
             # checked for both arms together).
             others = frozenset((held[0], o) for o in robots if o != r)
             _solo_goal(ctx, r, t, "the move target", others)  # type 1 when unreachable at all
-        paths = _straight_lines(ctx, robots, targets, f"carry {held[0]}")
+        paths = _straight_lines(ctx, robots, targets, "the move targets")
         execute_paths(world, paths, {r: 0.0 for r in robots}, speed=CARRY_SPEED)
     else:
         # A container with contents is carried upright: straight end-effector lines keep its
@@ -237,10 +230,11 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
         # Otherwise, or when the lines are blocked, the arms move at once, so each target is
         # solved with the other arm ignored (it will not stay where it is now); then the two
         # goals are checked together, and the joint path between is planned for both.
+        upright = any(world.contents.get(o, 0) > 0 for o in held if o is not None)
         lines = None
-        if any(o in world.contents for o in held):
+        if upright:
             try:
-                lines = _straight_lines(ctx, robots, targets, "carry upright")
+                lines = _straight_lines(ctx, robots, targets, "the move targets")
             except SkillFailure as blocked:
                 ctx.notes.append(f"no upright carry ({blocked.reason}); planned in joint space")
         fingers = {r: gripper_target(world, r) for r in robots}
@@ -254,7 +248,7 @@ def group_move(ctx: SkillContext, steps: Sequence[Step], actions: Sequence[Float
                 for r, t in zip(robots, targets, strict=True)
             ]
             goals = _free_pair(ctx, robots, options)
-            in_turn = _plan_in_turn(ctx, robots, goals) if any(o in world.contents for o in held) else None
+            in_turn = _plan_in_turn(ctx, robots, goals) if upright else None
             if in_turn is None:
                 _plan_together(ctx, robots, goals, "the move targets")
             for r, path in in_turn or []:

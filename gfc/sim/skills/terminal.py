@@ -21,7 +21,7 @@ from gfc.sim.skills.motions import (
     SkillContext,
     collision_fn,
     ee,
-    free_ik_solutions,
+    free_ik,
     joints,
     require_holding,
     straight,
@@ -235,27 +235,24 @@ def pour(ctx: SkillContext, step: Step, action: FloatArray) -> str:
 
 def _reconfigure_for(ctx: SkillContext, robot: str, poses: list[FloatArray], what: str) -> list[FloatArray]:
     """The arm cannot follow ``poses`` (which start at the hand's pose now) from its joints: the
-    tipping runs into a joint limit on this IK branch. Look for another IK solution of the same
-    hand pose from which it can, move there (a planned motion, what the hand holds kept upright
-    and clear of everything) and return the joint path of ``poses`` from it; type 1 when no
-    solution can follow them."""
+    tipping runs into a joint limit on this IK branch. Move to another IK solution of the same
+    hand pose from which it can (a planned motion, what the hand holds kept upright and clear of
+    everything) and return the joint path of ``poses`` from there. Type 1 when no solution can
+    follow them, type 2 when the way there is blocked."""
     check = collision_fn(ctx, [robot])
-    try:
-        options = free_ik_solutions(ctx, robot, poses[0], check, "the hand's pose now")
-    except SkillFailure:
-        options = []
-    for q in options:
-        path = cartesian_joint_path(ctx.world, robot, q, poses, ctx.rng)
-        if path is None:
-            continue
-        result = plan_motion(check, joints(ctx, robot), q, ctx.rng)
-        ctx.planning_s += result.planning_s
-        if result.path is None:
-            continue
-        execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)}, speed=0.5)
-        ctx.notes.append(f"{robot} turned its arm to another IK branch to {what}")
-        return cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng) or path
-    raise SkillFailure(FailureType.METHOD, f"{robot} cannot {what}: from no IK branch can it tip that far")
+    goal = free_ik(ctx, robot, poses[0], check, f"the hand's pose to {what}", follow=poses[1:])
+    result = plan_motion(check, joints(ctx, robot), goal, ctx.rng)
+    ctx.planning_s += result.planning_s
+    if result.path is None:
+        raise SkillFailure(
+            FailureType.PATH, f"{robot}: no way to an arm pose that can {what}: {result.reason}"
+        )
+    execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)}, speed=0.5)
+    ctx.notes.append(f"{robot} turned its arm to another IK branch to {what}")
+    path = cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng)
+    if path is None:
+        raise SkillFailure(FailureType.PHYSICS, f"{robot} drifted off the IK branch it turned to for {what}")
+    return path
 
 
 def _axis_angle(axis: FloatArray, angle: float) -> FloatArray:

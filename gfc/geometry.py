@@ -128,6 +128,19 @@ def yaw_of_matrix(rot: npt.ArrayLike) -> float:
     return math.atan2(r[1, 0], r[0, 0])
 
 
+def approach_frame(origin: npt.ArrayLike, target: npt.ArrayLike) -> FloatArray:
+    """The 4x4 frame at ``target`` (its z kept) whose x axis points horizontally from ``origin`` to
+    ``target`` (z up): "away from the robot" at the target, whatever the target's own yaw."""
+    o = np.asarray(origin, dtype=np.float64)
+    t = np.asarray(target, dtype=np.float64)
+    yaw = math.atan2(t[1] - o[1], t[0] - o[0])
+    c, s = math.cos(yaw), math.sin(yaw)
+    out = np.eye(4)
+    out[:2, :2] = [[c, -s], [s, c]]
+    out[:3, 3] = t[:3]
+    return out
+
+
 def pose9_frame_map(world_from_frame: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     """The affine map ``v_frame = A @ v_world + b`` for 9-vector poses.
 

@@ -15,6 +15,9 @@ from collections import OrderedDict
 
 from gfc.diffusion.denoiser import Precision, StackedDenoiser
 from gfc.planner.library import Bank, stack_models
+from gfc.skills.signatures import SKILLS
+from skill_store.errors import SkillStoreError
+from skill_store.manifest import Signature
 from skill_store.names import parse_ref
 from skill_store.store import ResolvedRef, SkillState, SkillStore
 
@@ -74,6 +77,7 @@ class StoreLibrary:
             if model is not None:
                 self._models.move_to_end(resolved)
                 return model
+        check_action_frame(self.store.manifest(resolved).signature, str(resolved))
         model = self.store.load(resolved)
         with self._lock:
             self._models[resolved] = model
@@ -92,6 +96,24 @@ class StoreLibrary:
                 self._banks[resolved] = stacked
                 _trim(self._banks, self._cache_size)
         return Bank(stacked, {ref: str(r) for ref, r in zip(refs, resolved, strict=True)})
+
+
+class IncompatibleModelError(SkillStoreError):
+    """A stored model whose actions mean something else than what this code executes."""
+
+
+def check_action_frame(signature: Signature, where: str) -> None:
+    """Refuse a model trained when its skill's action was expressed in another frame: its samples
+    would be executed as if they meant something else (push and pull moved from the target's
+    frame to its approach frame in session 6)."""
+    spec = SKILLS.get(signature.skill or "")
+    if spec is None or signature.action_frame is None or signature.action_frame == spec.action_frame:
+        return
+    raise IncompatibleModelError(
+        f"{where} was trained with actions as {signature.action_frame!r}, but this code executes "
+        f"{spec.name} actions as {spec.action_frame!r}; retrain it (gfc library build --only "
+        f"{where.split('@')[0]}) or use a version trained by this code"
+    )
 
 
 def _trim(

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from gfc import constraints
 from gfc.geometry import (
+    approach_frame,
     invert,
     matrix_to_pose9,
     matrix_to_quat,
@@ -66,6 +67,24 @@ def _node(x: float, y: float, z: float, yaw: float = 0.0) -> torch.Tensor:
     return torch.tensor(
         matrix_to_pose9(pose7_to_matrix([x, y, z, *yaw_quat(yaw)])), dtype=torch.float64
     ).unsqueeze(0)
+
+
+def test_approach_frame_points_from_the_origin_to_the_target() -> None:
+    frame = approach_frame([0.0, -0.35, 0.1], [0.5, 0.15, 0.02])
+    assert np.allclose(frame[:3, 3], [0.5, 0.15, 0.02])  # at the target, its height kept
+    assert np.allclose(frame[:3, 0], [math.sqrt(0.5), math.sqrt(0.5), 0.0])  # 45 degrees
+    assert np.allclose(frame[:3, 2], [0.0, 0.0, 1.0])
+    assert np.allclose(frame[:3, :3] @ frame[:3, :3].T, np.eye(3))
+
+
+@given(coords, coords, coords, coords)
+def test_approach_frame_x_axis_is_the_unit_bearing(ox: float, oy: float, tx: float, ty: float) -> None:
+    bearing = np.array([tx - ox, ty - oy])
+    if np.linalg.norm(bearing) < 1e-3:
+        return
+    frame = approach_frame([ox, oy, 0.0], [tx, ty, 0.0])
+    assert np.allclose(frame[:2, 0], bearing / np.linalg.norm(bearing))
+    assert np.isclose(np.linalg.det(frame[:3, :3]), 1.0)
 
 
 def test_inside_is_zero_inside_and_grows_outside() -> None:

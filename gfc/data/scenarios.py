@@ -474,18 +474,15 @@ PULL_BLOCK_IN_TOOL = (HOOK_BAR_X - 0.05, 0.01)  # the block just inside the bar,
 PUSH_BLOCK_IN_TOOL = (HOOK_BAR_X + 0.05, 0.01)  # the block just beyond the bar's outer face
 
 
-def stroke_action(rng: Rng, block: FloatArray, away: float, block_in_tool: tuple[float, float]) -> FloatArray:
-    """(x, y, r, theta): the tool's tip in the block's frame, the stroke length, and the tool's
-    heading relative to the block's, for a tool pointing ``away`` (world yaw) from the robot with
-    the block at ``block_in_tool`` in the tool frame."""
-    tool_yaw = away + rng.normal(0.0, 0.25)
-    tool = rot_z(tool_yaw)
+def stroke_action(rng: Rng, block_in_tool: tuple[float, float]) -> FloatArray:
+    """(x, y, r, theta) in the block's approach frame (gfc/sim/skills/tools.py): the tool heading
+    about straight away from the robot, with the block at about ``block_in_tool`` in the tool's
+    frame, and a stroke length."""
+    theta = rng.normal(0.0, 0.25)
+    tool = rot_z(theta)[:2, :2]
     offset = np.asarray(block_in_tool) + rng.normal(0.0, 0.006, size=2)
-    origin = block[:3, 3] - tool @ np.array([offset[0], offset[1], 0.0])
-    tip_world = origin + tool @ np.array([HOOK_TIP[0], HOOK_TIP[1], 0.0])
-    tip = (np.linalg.inv(block) @ np.array([*tip_world, 1.0]))[:2]
-    block_yaw = math.atan2(block[1, 0], block[0, 0])
-    theta = math.remainder(tool_yaw - block_yaw, 2 * math.pi)
+    # The block sits at the approach frame's origin, so the tool's origin is at -tool @ offset.
+    tip = tool @ (np.asarray(HOOK_TIP[:2]) - offset)
     return np.array([tip[0], tip[1], rng.uniform(0.08, 0.25), theta])
 
 
@@ -494,35 +491,53 @@ def stroke_uniform(rng: Rng, _state: State) -> list[FloatArray]:
     return [np.array([xy[0], xy[1], rng.uniform(0.01, 0.3), rng.uniform(-math.pi, math.pi)])]
 
 
+HOOK_HALF = OBJECT_KINDS["hook"].half_extents
+BLOCK_CLEARANCE = 0.06  # m between the hook's outline and a block's centre when the scene starts
+# Where blocks start, in the acting base's frame: ahead (x) and out to the side (lateral, positive
+# away from the table's centre line). They cover the tasks' blocks (hook reach pulls from 0.85 m
+# ahead, rearrangement push starts 0.65 m ahead and 3 cm inwards).
+STROKE_BLOCK_AHEAD = {"push": (0.6, 0.8), "pull": (0.62, 0.88)}
+STROKE_BLOCK_LATERAL = (-0.06, 0.22)
+
+
+def _clear_of_hook(block_xy: FloatArray, hook: tuple[float, float, float]) -> bool:
+    """Whether a block centred at ``block_xy`` stands clear of the hook's bounding box."""
+    hx, hy, yaw = hook
+    local = rot_z(-yaw)[:2, :2] @ (block_xy - np.array([hx, hy]))
+    return bool(abs(local[0]) > HOOK_HALF[0] + BLOCK_CLEARANCE or abs(local[1]) > HOOK_HALF[1] + BLOCK_CLEARANCE)
+
+
 def stroke(skill: str) -> ScenarioSampler:
-    """The robot picks the hook, then pulls a block towards its base (``pull``: the block
-    starts far out) or pushes it away (``push``: the block starts within reach)."""
+    """The robot picks the hook, then pulls a block towards its base (``pull``) or pushes it away
+    (``push``)."""
 
     def sample(rng: Rng) -> Scenario:
         robot = str(rng.choice(["left", "right"]))
         bx, by, _ = BASES[robot]
         outward = 1.0 if by > 0 else -1.0
-        hook_at = (bx + rng.uniform(0.4, 0.48), by - outward * rng.uniform(0.0, 0.08))
-        near, far = (0.65, 0.78) if skill == "push" else (0.62, 0.75)
-        block_at = (bx + rng.uniform(near, far), by + outward * rng.uniform(0.1, 0.25))
+        hook = (bx + rng.uniform(0.4, 0.48), by - outward * rng.uniform(0.0, 0.08), rng.uniform(-0.3, 0.3))
+        while True:
+            block_at = np.array(
+                [bx + rng.uniform(*STROKE_BLOCK_AHEAD[skill]), by + outward * rng.uniform(*STROKE_BLOCK_LATERAL)]
+            )
+            if _clear_of_hook(block_at, hook):
+                break
         objects: list[dict[str, object]] = [
-            {"name": "obj", "kind": "hook", "pose": pose7(*hook_at, TABLE_Z, rng.uniform(-0.3, 0.3))},
+            {"name": "obj", "kind": "hook", "pose": pose7(hook[0], hook[1], TABLE_Z, hook[2])},
             {
                 "name": "block",
                 "kind": "block",
-                "pose": pose7(*block_at, TABLE_Z, rng.uniform(-math.pi, math.pi)),
+                "pose": pose7(float(block_at[0]), float(block_at[1]), TABLE_Z, rng.uniform(-math.pi, math.pi)),
             },
         ]
         skeleton: list[dict[str, object]] = [
             {"skill": "pick", "robot": robot, "object": "obj"},
             {"skill": skill, "robot": robot, "object": "obj", "target": "block"},
         ]
+        inside = PUSH_BLOCK_IN_TOOL if skill == "push" else PULL_BLOCK_IN_TOOL
 
-        def propose(r: Rng, state: State) -> list[FloatArray]:
-            block = pose7_to_matrix(state["poses"]["block"])
-            away = math.atan2(block[1, 3] - by, block[0, 3] - bx)  # from the base out to the block
-            inside = PUSH_BLOCK_IN_TOOL if skill == "push" else PULL_BLOCK_IN_TOOL
-            return [stroke_action(r, block, away, inside)]
+        def propose(r: Rng, _state: State) -> list[FloatArray]:
+            return [stroke_action(r, inside)]
 
         grasp = pose9(
             [rng.uniform(-0.15, -0.05), -0.045, 0.018], rot_z(float(rng.choice([0.0, math.pi]))) @ DOWN

@@ -62,17 +62,11 @@ def sample_variant(name: str, seed: int) -> TaskInstance:
     rng = np.random.default_rng(seed)
     blocks = ["block"] if variant.blocks == 1 else ["block_a", "block_b"]
     objects: list[dict[str, object]] = []
-    block_x: list[float] = []
+    block_at: list[tuple[float, float, float]] = []  # x, y, yaw
     for block, (x, y) in zip(blocks, _FAR, strict=False):
-        bx = x + rng.uniform(-0.015, 0.015)
-        block_x.append(bx)
-        objects.append(
-            {
-                "name": block,
-                "kind": "block",
-                "pose": pose7(bx, y + rng.uniform(-0.02, 0.02), TABLE_Z, rng.uniform(-0.15, 0.15)),
-            }
-        )
+        at = (x + rng.uniform(-0.015, 0.015), y + rng.uniform(-0.02, 0.02), rng.uniform(-0.15, 0.15))
+        block_at.append(at)
+        objects.append({"name": block, "kind": "block", "pose": pose7(at[0], at[1], TABLE_Z, at[2])})
     hook_pose = pose7(
         0.38 + rng.uniform(-0.02, 0.02), -0.60 + rng.uniform(-0.02, 0.02), TABLE_Z, rng.uniform(-0.1, 0.1)
     )
@@ -95,10 +89,11 @@ def sample_variant(name: str, seed: int) -> TaskInstance:
 
     skeleton: list[dict[str, object]] = [pick("hook")]
     actions: list[FloatArray | None] = [hook_grasp()]
-    for block, bx in zip(blocks, block_x, strict=True):
+    for block, (bx, by, yaw) in zip(blocks, block_at, strict=True):
         skeleton.append(tool("pull", block))
-        # The block's yaw (at most 0.15 rad) shortens its travel along world x by 1 % at most.
-        actions.append(stroke(bx - PULL_TO_X, push=False))
+        # Along the block's own x axis; its yaw (at most 0.15 rad) shortens the travel along world
+        # x by 1 % at most.
+        actions.append(stroke((bx, by), yaw, bx - PULL_TO_X, push=False))
     skeleton.append(place("hook", "rack"))
     actions.append(hook_on_rack())
     goal: list[dict[str, object]] = []

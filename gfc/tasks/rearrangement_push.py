@@ -110,11 +110,13 @@ def sample_variant(name: str, seed: int) -> TaskInstance:
             actions += [block_grasp(), block_in_box(slot, 0.0)]
             goal.append({"type": "inside", "object": obstacle, "target": "box"})
     skeleton += [pick("block"), place("block", "rack"), pick("hook"), tool("push", "block")]
+    front_of_rack = frame([rx, ry, TABLE_Z], rot_z(ryaw)) @ np.array([FRONT_OF_RACK, 0.0, 0.0, 1.0])
     actions += [
         block_grasp(),
         grasp9([FRONT_OF_RACK, 0.0, 0.003], np.eye(3)),  # on the table, square to the bar (rack frame)
         hook_grasp(),
-        stroke(-FRONT_OF_RACK, push=True),  # from 13 cm in front to the bar's centre line
+        # From 13 cm in front of the bar to its centre line, square to the bar.
+        stroke(front_of_rack[:2], ryaw, -FRONT_OF_RACK, push=True),
     ]
     plan = PlanRequest.model_validate(
         {

@@ -12,9 +12,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gfc.geometry import FloatArray
+from gfc.geometry import FloatArray, approach_frame
 from gfc.kinds import object_kind
-from gfc.tasks.base import grasp9, rot_z
+from gfc.tasks.base import RIGHT_BASE, grasp9, rot_z
 from gfc.tasks.boxes import FLOOR
 
 ROBOT = "right"
@@ -33,10 +33,11 @@ RACK_TOP = 2 * object_kind("rack").half_extents[2]  # the bar's top face, 0.12 m
 HOOK_ON_RACK = (0.01, 0.0, RACK_TOP + 0.003)
 HOOK_ON_RACK_YAW = -math.pi / 2
 
-# Pull and push (x, y, r, theta) in the block's frame: the tip frame 5 cm beyond the block's
-# centre (pull: on its far side, +x) or short of it (push: its near side, -x), 3 cm to its +y side, so that the hook's short part (x from
-# 0.17 to 0.2 in the hook frame) meets the block's face with 1 cm to spare and the shaft passes
-# 2.5 cm beside it; theta = 0 keeps the hook's face parallel to the block's.
+# Pull and push: the tool heads along the block's face normal, with the tip frame 5 cm beyond the
+# block's centre (pull: on its far side) or short of it (push: its near side) and 3 cm to its
+# left, so that the hook's short part (x from 0.17 to 0.2 in the hook frame) meets the block's
+# face with 1 cm to spare and the shaft passes 2.5 cm beside it. The action itself is expressed
+# in the block's approach frame (gfc/sim/skills/tools.py), so ``stroke`` converts.
 TIP_BEHIND = 0.05
 TIP_SIDE = 0.03
 TIP_GAP = 0.01  # m the block travels less than the hand: the gap closed before contact
@@ -70,11 +71,15 @@ def hook_on_rack() -> FloatArray:
     return grasp9(HOOK_ON_RACK, rot_z(HOOK_ON_RACK_YAW))
 
 
-def stroke(block_travel: float, push: bool) -> FloatArray:
-    """A pull (tip beyond the block) or a push (tip short of it) that moves the block
-    ``block_travel`` metres along its x axis (-x for a pull, +x for a push)."""
-    x = -TIP_BEHIND if push else TIP_BEHIND
-    return np.array([x, TIP_SIDE, block_travel + TIP_GAP, 0.0])
+def stroke(block_xy: Sequence[float], heading: float, block_travel: float, push: bool) -> FloatArray:
+    """A pull (tip beyond the block) or a push (tip short of it) by the acting arm, the tool
+    pointing along the world yaw ``heading``, that moves the block at ``block_xy`` (world)
+    ``block_travel`` metres (along -heading for a pull, +heading for a push): ``(x, y, r, theta)``
+    in the block's approach frame."""
+    approach = approach_frame(RIGHT_BASE, [*block_xy, 0.0])
+    theta = math.remainder(heading - math.atan2(approach[1, 0], approach[0, 0]), 2 * math.pi)
+    tip = rot_z(theta)[:2, :2] @ np.array([-TIP_BEHIND if push else TIP_BEHIND, TIP_SIDE])
+    return np.array([tip[0], tip[1], block_travel + TIP_GAP, theta])
 
 
 def box_slots(rows: Sequence[Sequence[float]]) -> list[tuple[float, float]]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 
+import pytest
 import torch
 
 from gfc.diffusion.denoiser import StackedDenoiser
@@ -12,7 +13,10 @@ from gfc.plan import compile_plan
 from gfc.plan.schema import Options
 from gfc.planner.library import random_library, stack_models
 from gfc.planner.planner import plan_candidates
+from gfc.skills.signatures import SKILLS
 from skill_store import SkillStore, StoreChange, StoreLibrary, StoreWatcher
+from skill_store.library import IncompatibleModelError, check_action_frame
+from skill_store.manifest import Signature, TokenEntry
 from tests.skill_store.conftest import SMALL, random_model
 from tests.skill_store.test_store import MOVE_LAYOUT
 
@@ -100,3 +104,15 @@ def test_the_planner_runs_on_stored_skills_exactly_as_on_in_memory_ones(store: S
     expected = plan_candidates(plan, in_memory, options)
     assert from_store.candidates == expected.candidates
     assert set(from_store.models.values()) == {f"{name}@1" for name in in_memory.models}
+
+
+TOKENS = [TokenEntry(dim=4, type="action")]
+
+
+def test_a_model_trained_with_another_action_frame_is_refused() -> None:
+    push = SKILLS["push"]
+    check_action_frame(Signature(tokens=TOKENS, skill="push", action_frame=push.action_frame), "push.hook.block@2")
+    check_action_frame(Signature(tokens=TOKENS), "my.model@1")  # no skill: nothing to compare
+    old = Signature(tokens=TOKENS, skill="push", action_frame="STAP/GSC push parameters relative to the target")
+    with pytest.raises(IncompatibleModelError, match=r"push.hook.block@1 .* retrain it"):
+        check_action_frame(old, "push.hook.block@1")

@@ -7,6 +7,7 @@ once), so two arms of one group are planned together and cannot hit each other.
 from __future__ import annotations
 
 import time
+from typing import Any
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,9 @@ from gfc.sim.panda import ARM_DOF, LOWER_LIMITS, UPPER_LIMITS
 ou.setLogLevel(ou.LogLevel.LOG_NONE)
 
 EDGE_RESOLUTION = 0.03  # rad between collision checks along an edge
-PLANNING_TIMEOUT = 5.0  # s
+# RRTConnect's budget: collision checks (about 5 s of one core here), and a wall-clock backstop.
+PLANNING_CHECKS = 30_000
+PLANNING_TIMEOUT = 30.0  # s
 SHORTCUT_ROUNDS = 60
 
 
@@ -44,7 +47,7 @@ def _space(dof: int) -> ob.RealVectorStateSpace:
 
 
 def _rrt_connect(
-    check: CollisionFn, start: FloatArray, goal: FloatArray, seed: int, timeout: float
+    check: CollisionFn, start: FloatArray, goal: FloatArray, seed: int, max_checks: int, timeout: float
 ) -> list[FloatArray] | None:
     # OMPL seeds every sampler from one process-wide generator; re-seeding it before each query
     # makes each query depend only on its own inputs, so a plan replays exactly.
@@ -52,7 +55,14 @@ def _rrt_connect(
     dof = len(start)
     space = _space(dof)
     info = ob.SpaceInformation(space)
-    info.setStateValidityChecker(lambda s: check(np.array([s[i] for i in range(dof)])) is None)
+    checks = 0
+
+    def valid(s: Any) -> bool:
+        nonlocal checks
+        checks += 1
+        return check(np.array([s[i] for i in range(dof)])) is None
+
+    info.setStateValidityChecker(valid)
     # OMPL's resolution is a fraction of the space's extent; convert from radians.
     info.setStateValidityCheckingResolution(EDGE_RESOLUTION / space.getMaximumExtent())
     info.setup()
@@ -66,7 +76,11 @@ def _rrt_connect(
     planner = og.RRTConnect(info)
     planner.setProblemDefinition(problem)
     planner.setup()
-    solved = planner.solve(timeout)
+    # The budget is counted in collision checks, not seconds, so a query's answer does not depend
+    # on how loaded the machine is; the wall-clock limit is only a backstop.
+    deadline = time.perf_counter() + timeout
+    stop = ob.PlannerTerminationCondition(lambda: checks >= max_checks or time.perf_counter() > deadline)
+    solved = planner.solve(stop)
     if not solved or not problem.hasExactSolution():
         return None
     states = problem.getSolutionPath().getStates()
@@ -97,9 +111,13 @@ def plan_motion(
     start: FloatArray,
     goal: FloatArray,
     rng: np.random.Generator,
-    timeout: float | None = None,
+    max_checks: int = PLANNING_CHECKS,
+    timeout: float = PLANNING_TIMEOUT,
 ) -> MotionResult:
-    """A collision-free joint path from ``start`` to ``goal`` (both included), or why not."""
+    """A collision-free joint path from ``start`` to ``goal`` (both included), or why not.
+
+    Given the same inputs and generator state it returns the same path on any machine and under
+    any load, unless the wall-clock ``timeout`` cuts the search short first."""
     began = time.perf_counter()
     hit = check(start)
     if hit is not None:
@@ -114,9 +132,11 @@ def plan_motion(
         )
     if first_collision_on_segment(check, start, goal, EDGE_RESOLUTION) is None:
         return MotionResult([start, goal], time.perf_counter() - began, "direct")
-    timeout = PLANNING_TIMEOUT if timeout is None else timeout
-    path = _rrt_connect(check, start, goal, int(rng.integers(2**31 - 2)), timeout)
+    path = _rrt_connect(check, start, goal, int(rng.integers(2**31 - 2)), max_checks, timeout)
     if path is None:
-        return MotionResult(None, time.perf_counter() - began, f"RRTConnect found no path in {timeout:.0f} s")
+        spent = time.perf_counter() - began
+        return MotionResult(
+            None, spent, f"RRTConnect found no path in {max_checks} collision checks ({spent:.1f} s)"
+        )
     path = shortcut(check, path, rng)
     return MotionResult(path, time.perf_counter() - began, f"RRTConnect, {len(path)} waypoints")

@@ -26,6 +26,7 @@ from gfc.diffusion.network import DiTConfig
 from gfc.diffusion.training import TrainConfig
 from gfc.pool import Pool
 from gfc.skills.training import plot_losses, train_skills
+from skill_store.library import IncompatibleModelError, check_action_frame
 
 # The skill models the benchmark tasks use (strike and pour are terminal: no learned model).
 DEFAULT_MODELS: tuple[str, ...] = (
@@ -128,12 +129,19 @@ def build_command(model: str, budget: str, seed: int) -> str:
 
 
 def published_version(store: Any, model: str, command: str) -> int | None:
-    """The version under ``latest`` when its manifest records ``command``, else None."""
+    """The version under ``latest`` when its manifest records ``command`` and its actions mean
+    what this code executes, else None."""
     version = store.aliases(model).get("latest")
     if version is None:
         return None
     manifest = store.manifest(f"{model}@{version}")
-    return int(version) if manifest.training.command == command else None
+    if manifest.training.command != command:
+        return None
+    try:  # trained when its skill's action meant something else: build it again
+        check_action_frame(manifest.signature, f"{model}@{version}")
+    except IncompatibleModelError:
+        return None
+    return int(version)
 
 
 def collect_model(

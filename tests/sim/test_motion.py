@@ -58,6 +58,10 @@ def test_rrt_connect_goes_around_the_rack_and_replays_exactly() -> None:
         np.testing.assert_allclose(first.path[-1], goal)
         assert entity_poses(world) == before, "planning must not move anything in the physics client"
         np.testing.assert_array_equal(arm_joints(world.client, world.physics.robots["left"]), joints_before)
+        # The search budget is counted in collision checks (not seconds): none left, it gives up, whatever
+        # the machine's load.
+        starved = plan_motion(check, start, goal, np.random.default_rng(3), max_checks=1)
+        assert starved.path is None and "1 collision checks" in starved.reason
 
 
 def test_goal_inside_an_obstacle_is_reported() -> None:

@@ -35,6 +35,7 @@ def build(
     processes: Annotated[int, typer.Option(min=1, help="simulator processes")] = 2,
     report: Annotated[Path | None, typer.Option(help="JSON with per-model rows and timings")] = None,
     seed: Annotated[int, typer.Option(min=0)] = 0,
+    rebuild: Annotated[bool, typer.Option(help="build again even models this build already published, from fresh data (after a scenario or skill change)")] = False,
 ) -> None:  # fmt: skip
     """Collect each model's data in the simulator, train them all, publish each with alias 'latest'.
 
@@ -44,7 +45,7 @@ def build(
     All datasets are collected first, then all models train together as stacked networks (one
     optimiser step for every model that shares a token count). Datasets resume shard by shard,
     and models this build already published to the store (same budget and seed) are skipped, so
-    an interrupted build can be run again.
+    an interrupted build can be run again; --rebuild builds them again from fresh data.
 
     Example: gfc library build --store /tmp/skills --report docs/bench/library_build.json
     """
@@ -73,7 +74,7 @@ def build(
             status.update(f"{m}: {what}")
             console.log(f"{m}: {what}")
 
-        result = build_library(models, budget, data, target, pool, seed, say)
+        result = build_library(models, budget, data, target, pool, seed, say, rebuild=rebuild)
     total = time.perf_counter() - began
     table = Table(
         title=f"library build ({budget}): {total / 60:.1f} min, training {result.train_s / 60:.1f} min"

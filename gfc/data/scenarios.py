@@ -474,16 +474,16 @@ PULL_BLOCK_IN_TOOL = (HOOK_BAR_X - 0.05, 0.01)  # the block just inside the bar,
 PUSH_BLOCK_IN_TOOL = (HOOK_BAR_X + 0.05, 0.01)  # the block just beyond the bar's outer face
 
 
-def stroke_action(rng: Rng, block_in_tool: tuple[float, float]) -> FloatArray:
+def stroke_action(rng: Rng, block_in_tool: tuple[float, float], longest: float = 0.25) -> FloatArray:
     """(x, y, r, theta) in the block's approach frame (gfc/sim/skills/tools.py): the tool heading
     about straight away from the robot, with the block at about ``block_in_tool`` in the tool's
-    frame, and a stroke length."""
+    frame, and a stroke length up to ``longest``."""
     theta = rng.normal(0.0, 0.25)
     tool = rot_z(theta)[:2, :2]
     offset = np.asarray(block_in_tool) + rng.normal(0.0, 0.006, size=2)
     # The block sits at the approach frame's origin, so the tool's origin is at -tool @ offset.
     tip = tool @ (np.asarray(HOOK_TIP[:2]) - offset)
-    return np.array([tip[0], tip[1], rng.uniform(0.08, 0.25), theta])
+    return np.array([tip[0], tip[1], rng.uniform(0.06, longest), theta])
 
 
 def stroke_uniform(rng: Rng, _state: State) -> list[FloatArray]:
@@ -498,6 +498,7 @@ BLOCK_CLEARANCE = 0.06  # m between the hook's outline and a block's centre when
 # ahead, rearrangement push starts 0.65 m ahead and 3 cm inwards).
 STROKE_BLOCK_AHEAD = {"push": (0.6, 0.8), "pull": (0.62, 0.88)}
 STROKE_BLOCK_LATERAL = (-0.06, 0.22)
+PULL_CLOSEST = 0.5  # m from the base: where the prior's longest pull leaves the block
 
 
 def _clear_of_hook(block_xy: FloatArray, hook: tuple[float, float, float]) -> bool:
@@ -536,8 +537,14 @@ def stroke(skill: str) -> ScenarioSampler:
         ]
         inside = PUSH_BLOCK_IN_TOOL if skill == "push" else PULL_BLOCK_IN_TOOL
 
-        def propose(r: Rng, _state: State) -> list[FloatArray]:
-            return [stroke_action(r, inside)]
+        def propose(r: Rng, state: State) -> list[FloatArray]:
+            if skill == "push":
+                return [stroke_action(r, inside)]
+            # A pull brings the hand towards the base, the tool's length behind the block; a long
+            # pull of a near block folds the arm onto itself.
+            block = np.asarray(state["poses"]["block"][:2])
+            distance = float(np.linalg.norm(block - np.array([bx, by])))
+            return [stroke_action(r, inside, longest=min(0.25, max(0.08, distance - PULL_CLOSEST)))]
 
         grasp = pose9(
             [rng.uniform(-0.15, -0.05), -0.045, 0.018], rot_z(float(rng.choice([0.0, math.pi]))) @ DOWN

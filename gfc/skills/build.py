@@ -14,6 +14,7 @@ interrupted build resumes.
 
 from __future__ import annotations
 
+import shutil
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -249,14 +250,20 @@ def build_library(
     pool: Pool,
     seed: int = 0,
     on_progress: Progress | None = None,
+    rebuild: bool = False,
 ) -> LibraryBuild:
-    """Collect every model not yet built into ``store``, train them together, publish them."""
+    """Collect every model not yet built into ``store``, train them together, publish them.
+
+    ``rebuild``: build every model again, even one this build already published, from a freshly
+    collected dataset (after its scenario or its skill's executor changed)."""
     say = on_progress or (lambda _m, _w: None)
     budget = BUDGETS[budget_name]
     skipped: dict[str, int] = {}
     collected = []
     for model in models:
-        version = published_version(store, model, build_command(model, budget_name, seed))
+        version = None if rebuild else published_version(store, model, build_command(model, budget_name, seed))
+        if rebuild:
+            shutil.rmtree(data_root / model, ignore_errors=True)
         if version is not None:
             say(model, f"already built: version {version}")
             skipped[model] = version

@@ -45,3 +45,11 @@ def test_tiny_build_publishes_and_checks_a_model(tmp_path: Path) -> None:
     assert missing.returncode != 0 and "pick.cube" in missing.stdout + missing.stderr
     unknown = gfc("skills", "check", "fly.cube", "-n", "1", "--store", str(store))
     assert unknown.returncode == 2 and "no scene sampler" in unknown.stderr
+
+    again = gfc("library", "build", "--budget", "tiny", "--only", "pick.cube", "--store", str(store),
+                "--data", str(data))  # fmt: skip
+    assert again.returncode == 0 and "already built: version 1" in again.stdout + again.stderr
+    rebuilt = gfc("library", "build", "--budget", "tiny", "--only", "pick.cube", "--store", str(store),
+                  "--data", str(data), "--rebuild")  # fmt: skip
+    assert rebuilt.returncode == 0, rebuilt.stdout + rebuilt.stderr
+    assert SkillStore(store).versions("pick.cube") == [1, 2]

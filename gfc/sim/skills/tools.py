@@ -31,6 +31,7 @@ from gfc.sim.world import object_matrix
 
 HOVER = 0.08  # m above the working height where the tool is lowered from
 MAX_STROKE = 0.3
+RETREAT_FALLBACK = 0.03  # m: the lift tried when the full one cannot be tracked
 MIN_TARGET_MOTION = 0.01  # m the target must move for the stroke to count
 
 
@@ -65,13 +66,26 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
     straight(ctx, robot, world_from_ee, "the working height")
     before = object_matrix(world.physics, target)[:3, 3]
     straight(ctx, robot, stroke_end, "the end of the stroke", speed=0.4)
-    straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, HOVER]), "the retreat")
+    _retreat(ctx, robot)
     moved = float(np.linalg.norm(object_matrix(world.physics, target)[:2, 3] - before[:2]))
     if moved < MIN_TARGET_MOTION:
         raise SkillFailure(
             FailureType.PHYSICS, f"the {tool} did not move the {target} ({moved * 100:.1f} cm)"
         )
     return f"{'pushed' if sign > 0 else 'pulled'} {target} {moved * 100:.1f} cm"
+
+
+def _retreat(ctx: SkillContext, robot: str) -> None:
+    """Lift the tool off the table, straight up; a pull can end with the hand close to the base,
+    where a full lift cannot always be tracked: then a shorter one, and else the arm stays (the
+    stroke itself is done; the next step starts from here)."""
+    for height in (HOVER, RETREAT_FALLBACK):
+        try:
+            straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, height]), "the retreat")
+            return
+        except SkillFailure:
+            continue
+    ctx.notes.append(f"{robot} could not lift the tool after the stroke")
 
 
 def push(ctx: SkillContext, step: Step, action: FloatArray) -> str:

@@ -505,7 +505,9 @@ def _clear_of_hook(block_xy: FloatArray, hook: tuple[float, float, float]) -> bo
     """Whether a block centred at ``block_xy`` stands clear of the hook's bounding box."""
     hx, hy, yaw = hook
     local = rot_z(-yaw)[:2, :2] @ (block_xy - np.array([hx, hy]))
-    return bool(abs(local[0]) > HOOK_HALF[0] + BLOCK_CLEARANCE or abs(local[1]) > HOOK_HALF[1] + BLOCK_CLEARANCE)
+    return bool(
+        abs(local[0]) > HOOK_HALF[0] + BLOCK_CLEARANCE or abs(local[1]) > HOOK_HALF[1] + BLOCK_CLEARANCE
+    )
 
 
 def stroke(skill: str) -> ScenarioSampler:
@@ -519,7 +521,10 @@ def stroke(skill: str) -> ScenarioSampler:
         hook = (bx + rng.uniform(0.4, 0.48), by - outward * rng.uniform(0.0, 0.08), rng.uniform(-0.3, 0.3))
         while True:
             block_at = np.array(
-                [bx + rng.uniform(*STROKE_BLOCK_AHEAD[skill]), by + outward * rng.uniform(*STROKE_BLOCK_LATERAL)]
+                [
+                    bx + rng.uniform(*STROKE_BLOCK_AHEAD[skill]),
+                    by + outward * rng.uniform(*STROKE_BLOCK_LATERAL),
+                ]
             )
             if _clear_of_hook(block_at, hook):
                 break
@@ -528,7 +533,9 @@ def stroke(skill: str) -> ScenarioSampler:
             {
                 "name": "block",
                 "kind": "block",
-                "pose": pose7(float(block_at[0]), float(block_at[1]), TABLE_Z, rng.uniform(-math.pi, math.pi)),
+                "pose": pose7(
+                    float(block_at[0]), float(block_at[1]), TABLE_Z, rng.uniform(-math.pi, math.pi)
+                ),
             },
         ]
         skeleton: list[dict[str, object]] = [

@@ -7,8 +7,8 @@ once), so two arms of one group are planned together and cannot hit each other.
 from __future__ import annotations
 
 import time
-from typing import Any
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from ompl import base as ob

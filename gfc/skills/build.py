@@ -261,7 +261,9 @@ def build_library(
     skipped: dict[str, int] = {}
     collected = []
     for model in models:
-        version = None if rebuild else published_version(store, model, build_command(model, budget_name, seed))
+        version = (
+            None if rebuild else published_version(store, model, build_command(model, budget_name, seed))
+        )
         if rebuild:
             shutil.rmtree(data_root / model, ignore_errors=True)
         if version is not None:

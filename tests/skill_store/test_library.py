@@ -111,8 +111,12 @@ TOKENS = [TokenEntry(dim=4, type="action")]
 
 def test_a_model_trained_with_another_action_frame_is_refused() -> None:
     push = SKILLS["push"]
-    check_action_frame(Signature(tokens=TOKENS, skill="push", action_frame=push.action_frame), "push.hook.block@2")
+    check_action_frame(
+        Signature(tokens=TOKENS, skill="push", action_frame=push.action_frame), "push.hook.block@2"
+    )
     check_action_frame(Signature(tokens=TOKENS), "my.model@1")  # no skill: nothing to compare
-    old = Signature(tokens=TOKENS, skill="push", action_frame="STAP/GSC push parameters relative to the target")
+    old = Signature(
+        tokens=TOKENS, skill="push", action_frame="STAP/GSC push parameters relative to the target"
+    )
     with pytest.raises(IncompatibleModelError, match=r"push.hook.block@1 .* retrain it"):
         check_action_frame(old, "push.hook.block@1")

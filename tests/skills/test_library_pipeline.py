@@ -52,4 +52,4 @@ def test_tiny_build_publishes_and_checks_a_model(tmp_path: Path) -> None:
     rebuilt = gfc("library", "build", "--budget", "tiny", "--only", "pick.cube", "--store", str(store),
                   "--data", str(data), "--rebuild")  # fmt: skip
     assert rebuilt.returncode == 0, rebuilt.stdout + rebuilt.stderr
-    assert SkillStore(store).versions("pick.cube") == [1, 2]
+    assert SkillStore(store).versions("pick.cube") == (1, 2)

@@ -20,9 +20,9 @@ import json
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
-from gfc.diffusion.denoiser import StackedDenoiser
+from gfc.diffusion.denoiser import Precision, StackedDenoiser
 from skill_store.aliases import (
     AuditEntry,
     append_audit,
@@ -175,11 +175,21 @@ class SkillStore:
         load_checked(manifest, data)
         return manifest, data
 
-    def load(self, ref: str | SkillRef | ResolvedRef) -> StackedDenoiser:
-        """A ready-to-call denoiser (eval mode), after every integrity check."""
+    def load(
+        self, ref: str | SkillRef | ResolvedRef, precision: Precision | Literal["stored"] = "float32"
+    ) -> StackedDenoiser:
+        """A ready-to-call denoiser (eval mode), after every integrity check.
+
+        ``precision`` is what the network computes in: float32 by default, whatever the weights
+        are stored as (bfloat16 values are exact in float32, and bfloat16 matmuls are 90 times
+        slower than float32 on a CPU without native bfloat16, e.g. AVX2 only); ``"stored"``
+        keeps the stored dtype."""
         resolved = self.resolve(ref)
         manifest = self._read_manifest(resolved)
-        return load_checked(manifest, self._read_weights(resolved, manifest))
+        model = load_checked(manifest, self._read_weights(resolved, manifest))
+        if precision != "stored" and model.precision != precision:
+            model = model.with_precision(precision)
+        return model
 
     def audit_log(self, name: str) -> list[AuditEntry]:
         return read_audit(self.backend, validate_name(name))

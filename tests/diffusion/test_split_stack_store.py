@@ -54,7 +54,7 @@ def test_split_models_round_trip_through_the_store(tmp_path: Path, precision: st
     for m, (name, single) in enumerate(zip(("place.cube.box", "pick.cube"), split_stack(stack), strict=True)):
         single = single.with_precision(precision)  # type: ignore[arg-type]
         version = store.publish(name, single, {"seed": 0}, aliases=("latest",))
-        loaded = store.load(f"{name}@{version}")
+        loaded = store.load(f"{name}@{version}", precision="stored")
         assert loaded.layouts == single.layouts == [stack.layouts[m]]
         saved, read = single.state_dict(), loaded.state_dict()
         assert saved.keys() == read.keys()

@@ -299,9 +299,14 @@ def test_publish_refuses_stacks_and_unknown_metadata(store: SkillStore, model: S
 def test_bfloat16_models_round_trip(store: SkillStore, model: StackedDenoiser) -> None:
     half = model.with_precision("bfloat16")
     store.publish("pick.hammer", half)
-    loaded = store.load("pick.hammer")
+    loaded = store.load("pick.hammer", precision="stored")
     assert loaded.precision == "bfloat16"
     assert torch.equal(outputs(loaded), outputs(half))
+    # By default the network computes in float32 with the very same (bfloat16-exact) weights.
+    upcast = store.load("pick.hammer")
+    assert upcast.precision == "float32"
+    for key, tensor in upcast.state_dict().items():
+        assert torch.equal(tensor, half.state_dict()[key].float()), key
 
 
 def test_skills_without_a_catalogue_entry_get_a_plain_signature(store: SkillStore) -> None:

@@ -60,6 +60,11 @@ def _linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.
     return torch.baddbmm(bias.unsqueeze(1), x, weight)
 
 
+def _per_token(modulation: torch.Tensor, t: int) -> torch.Tensor:
+    """(M, 1, K) stays (it broadcasts over tokens); (M, B, K), one per row, -> (M, B*T, K)."""
+    return modulation if modulation.shape[1] == 1 else modulation.repeat_interleave(t, dim=1)
+
+
 class DiTStack(nn.Module):
     """M DiT score networks of one size, evaluated together.
 
@@ -155,12 +160,12 @@ class DiTStack(nn.Module):
             marker = clean.reshape(m, b * t, 1).to(h.dtype) * self.clean_emb.unsqueeze(1)  # (M, B*T, H)
             h = torch.cat([h[:, : b * t] + marker, h[:, b * t :]], dim=1)
         c = F.silu(self.noise_embedding(c_noise))  # (M, B or 1, H)
-        if c.shape[1] != 1:
-            c = c.repeat_interleave(t, dim=1)  # per-row levels: one modulation per token
         attn_mask = present.reshape(m * b, 1, 1, t)  # True = attend
         for block in self.blocks:
             h = block(h, c, attn_mask, b, t)
-        shift, scale = _linear(c, self.final_mod_w, self.final_mod_b).chunk(2, dim=-1)
+        # Per-row levels (training): the modulation is computed once per row, then repeated
+        # for the row's T tokens (computing it per token cost as much as the block itself).
+        shift, scale = _per_token(_linear(c, self.final_mod_w, self.final_mod_b), t).chunk(2, dim=-1)
         h = F.layer_norm(h, (h.shape[-1],)) * (1 + scale) + shift
         out = self._decode(h, types_flat, d)  # (M, N, D)
         rows_out = out[:, : b * t].reshape(m, b, t, d)
@@ -230,10 +235,10 @@ class _Block(nn.Module):
     def forward(
         self, x: torch.Tensor, c: torch.Tensor, attn_mask: torch.Tensor, b: int, t: int
     ) -> torch.Tensor:
-        """x: (M, N, H) with N = B*T row tokens, then any lone tokens; c: (M, 1 or N, H)."""
+        """x: (M, N, H) with N = B*T row tokens, then any lone tokens; c: (M, 1 or B, H), one level per model or per row."""
         m, n, h = x.shape
         rows = b * t
-        mod = _linear(c, self.mod_w, self.mod_b)  # (M, 1 or N, 6H)
+        mod = _per_token(_linear(c, self.mod_w, self.mod_b), t)  # (M, 1 or N, 6H)
         shift1, scale1, gate1, shift2, scale2, gate2 = mod.chunk(6, dim=-1)
         p = self.dropout if self.training else 0.0
 

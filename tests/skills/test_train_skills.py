@@ -67,12 +67,14 @@ def test_the_build_skips_only_what_it_published_itself(tmp_path: Path) -> None:
     assert published_version(store, "pick.cube", build_command("pick.cube", "tiny", 1)) is None
 
 
-def test_the_full_budget_gives_the_precise_models_more_data_and_steps() -> None:
-    from gfc.skills.build import BUDGETS, DEFAULT_MODELS, PRECISE_MODELS
+def test_the_full_budget_gives_the_precise_models_more_data_and_sharper_training() -> None:
+    from gfc.skills.build import BUDGETS, DEFAULT_MODELS, PRECISE_MODELS, SHARP, SHARP_MODELS, Recipe
 
     full = BUDGETS["full"]
-    assert set(PRECISE_MODELS) <= set(DEFAULT_MODELS)  # a typo would silently change nothing
+    assert set(SHARP_MODELS) <= set(DEFAULT_MODELS)  # a typo would silently change nothing
+    assert set(PRECISE_MODELS) <= set(SHARP_MODELS)
     for model in DEFAULT_MODELS:
         precise = model in PRECISE_MODELS
-        assert full.steps_for(model) == (4000 if precise else full.train_steps)
+        assert full.recipe_for(model) == (SHARP if model in SHARP_MODELS else Recipe(full.train_steps))
         assert full.extra_attempts.get(model, full.attempts) == (400 if precise else full.attempts)
+    assert SHARP.p_mean < Recipe(1).p_mean and SHARP.dropout == 0.0

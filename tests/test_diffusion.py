@@ -109,6 +109,18 @@ def test_stacked_models_equal_individual_models() -> None:
     assert torch.allclose(b_layout.unpad(out[1, :, :3]), denoise_flat(b, xb, sigma), atol=1e-5)
 
 
+def test_rows_at_different_noise_levels_each_get_their_own_modulation() -> None:
+    """Training batches mix noise levels: each row's output must equal that row denoised alone."""
+    model = randomised(single_model(LAYOUT, SMALL), 7)
+    g = torch.Generator().manual_seed(8)
+    x = torch.randn(4, LAYOUT.total_dim, generator=g)
+    sigma = torch.tensor([0.01, 0.2, 1.5, 6.0])
+    together = denoise_flat(model, x, sigma)
+    for i in range(4):
+        alone = denoise_flat(model, x[i : i + 1], sigma[i : i + 1])
+        assert torch.allclose(together[i : i + 1], alone, atol=1e-5), f"row {i}"
+
+
 def test_absent_tokens_do_not_influence_present_ones() -> None:
     model = randomised(single_model(LAYOUT, SMALL), 4)
     x = torch.randn(3, LAYOUT.total_dim)

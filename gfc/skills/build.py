@@ -63,7 +63,7 @@ DEFAULT_MODELS: tuple[str, ...] = (
 PRECISE_MODELS = ("pick.pot", "regrasp.hammer", "place.cube.lid", "pick.mug", "pick.cup", "place.hammer.box")
 # Models whose samples were broader than their data (the checks of docs/skills.md below 90 %):
 # they are trained for sharpness (``SHARP``). The pot's grasp y, for one, came out with a
-# spread of 1.3 cm against the data's 0.46 cm (docs/skill_learning.md, section 5).
+# spread of 1.3 cm against the data's 0.46 cm (docs/adr/0004-sharp-training.md).
 SHARP_MODELS = (
     *PRECISE_MODELS,
     "move.nail",
@@ -80,17 +80,22 @@ class Recipe:
     P_mean and P_std, in the data's own units) and the network's dropout."""
 
     steps: int
-    p_mean: float = -1.2
-    p_std: float = 1.2
-    dropout: float = 0.1
+    p_mean: float = TrainConfig.p_mean
+    p_std: float = TrainConfig.p_std
+    dropout: float = DiTConfig.dropout
 
     def describe(self) -> str:
         return f"{self.steps} steps, noise ln N({self.p_mean}, {self.p_std}^2), dropout {self.dropout}"
 
+    def train_config(self, batch_size: int, seed: int) -> TrainConfig:
+        return TrainConfig(
+            steps=self.steps, batch_size=batch_size, p_mean=self.p_mean, p_std=self.p_std, seed=seed
+        )
+
 
 # Sharp training, measured on pick.pot (400 attempts; gfc skills check -n 40): the default
 # recipe at 4,000 steps 60 %; lower noise levels 75 %; also no dropout 88 %; 8,000 steps
-# without dropout: see docs/skill_learning.md. Most of the precision is learnt at noise levels
+# without dropout 92 % (docs/adr/0004-sharp-training.md). Most of the precision is learnt at noise levels
 # of a few millimetres, which the default distribution (median 0.3 m) rarely draws.
 SHARP = Recipe(steps=8000, p_mean=-2.4, p_std=1.4, dropout=0.0)
 
@@ -106,9 +111,6 @@ class BuildBudget:
 
     def recipe_for(self, model: str) -> Recipe:
         return self.recipes.get(model, Recipe(self.train_steps))
-
-    def steps_for(self, model: str) -> int:
-        return self.recipe_for(model).steps
 
 
 BUDGETS: dict[str, BuildBudget] = {
@@ -225,16 +227,8 @@ def train_and_publish(
     recipes = sorted({budget.recipe_for(c.model) for c in collected}, key=lambda r: (r.steps, r.describe()))
     for recipe in recipes:
         group = [c for c in collected if budget.recipe_for(c.model) == recipe]
-        config = TrainConfig(
-            steps=recipe.steps,
-            batch_size=budget.batch_size,
-            p_mean=recipe.p_mean,
-            p_std=recipe.p_std,
-            seed=seed,
-        )
-        network = DiTConfig(dropout=recipe.dropout)
         group_builds, group_s = _train_group(
-            group, config, network, recipe, budget_name, data_root, store, seed, on_progress
+            group, recipe, budget.batch_size, budget_name, data_root, store, seed, on_progress
         )
         builds += group_builds
         total_s += group_s
@@ -244,9 +238,8 @@ def train_and_publish(
 
 def _train_group(
     collected: list[Collected],
-    config: TrainConfig,
-    network: DiTConfig,
     recipe: Recipe,
+    batch_size: int,
     budget_name: str,
     data_root: Path,
     store: Any,
@@ -255,6 +248,7 @@ def _train_group(
 ) -> tuple[list[ModelBuild], float]:
     """Train models that share a recipe in one stacked run, then plot and publish each."""
     say = on_progress or (lambda _m, _w: None)
+    config = recipe.train_config(batch_size, seed)
     every = max(1, config.steps // 10)
 
     def on_step(stack: Sequence[str], step: int, losses: list[float]) -> None:
@@ -268,7 +262,9 @@ def _train_group(
     names = [c.model for c in collected]
     say("training", f"{len(names)} models, {config.steps} steps of {config.batch_size} rows each")
     began = time.perf_counter()
-    trained = train_skills([data_root / m for m in names], config, network, on_step=on_step)
+    trained = train_skills(
+        [data_root / m for m in names], config, DiTConfig(dropout=recipe.dropout), on_step=on_step
+    )
     train_s = time.perf_counter() - began
     builds = []
     for c, skill in zip(collected, trained, strict=True):

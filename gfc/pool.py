@@ -28,12 +28,13 @@ class InlinePool:
         return [fn(item) for item in items]
 
 
-def make_pool(ray_address: str | None = None, processes: int = 2) -> Pool:
+def make_pool(ray_address: str | None = None, processes: int = 2, keep_alive: bool = False) -> Pool:
     """Ray when an address is given (``auto``, ``ray://host:10001``, ``local`` for an
-    in-process cluster), else local processes."""
+    in-process cluster), else local processes (kept up between calls with ``keep_alive``;
+    the caller then closes the pool)."""
     if ray_address:
         return RayPool(None if ray_address == "local" else ray_address)
-    return LocalPool(processes)
+    return LocalPool(processes, keep_alive=keep_alive)
 
 
 class RayPool:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -154,6 +154,14 @@ def random_weights_library(tasks: Sequence[str], seed: int = 0) -> InMemoryLibra
     return InMemoryLibrary(models)
 
 
+class TrialRecord(Protocol):
+    """Where finished trials are kept across runs (``gfc.bench.trial_log.TrialLog``)."""
+
+    def get(self, key: tuple[str, str, int]) -> Trial | None: ...
+
+    def append(self, trial: Trial) -> None: ...
+
+
 def run_benchmark(
     tasks: Sequence[str],
     methods: Sequence[str],
@@ -164,9 +172,14 @@ def run_benchmark(
     seed: int = 0,
     chunk: int = 16,
     on_progress: Progress | None = None,
+    log: TrialRecord | None = None,
 ) -> BenchResult:
     """Plan and execute ``trials`` scenes per task and method. Progress units: one per trial
-    planned and one per trial executed (``2 * len(tasks) * len(methods) * trials`` in all)."""
+    planned and one per trial executed (``2 * len(tasks) * len(methods) * trials`` in all).
+
+    With a ``log``, trials it already holds are taken from it instead of being redone, and each
+    new trial is appended to it as soon as its chunk has been executed: an interrupted run loses
+    at most one chunk."""
     unknown = [t for t in tasks if t not in ALL_TASKS]
     if unknown:
         raise KeyError(f"unknown tasks {unknown} (known: {', '.join(sorted(ALL_TASKS))})")
@@ -180,19 +193,30 @@ def run_benchmark(
     planners = {m: make_method(m, library if needs_models(m) else None) for m in methods}
     result = BenchResult(list(tasks), list(methods))
     for task in tasks:
-        planned: list[tuple[str, int, MethodPlan]] = []
-        for method in methods:
-            for i in range(trials):
-                instance = sample_task(task, seed + i)
-                planned.append((method, instance.seed, planners[method](instance, settings)))
+        keys = [(task, method, seed + i) for method in methods for i in range(trials)]
+        done: dict[tuple[str, str, int], Trial] = {}
+        for key in keys:
+            found = None if log is None else log.get(key)
+            if found is not None:
+                done[key] = found
+        if done:
+            report(f"{task}: {len(done)} trials from the log", 2 * len(done))
+        todo = [k for k in keys if k not in done]
+        for start in range(0, len(todo), chunk):
+            planned: list[tuple[str, int, MethodPlan]] = []
+            for _, method, trial_seed in todo[start : start + chunk]:
+                plan = planners[method](sample_task(task, trial_seed), settings)
+                planned.append((method, trial_seed, plan))
                 report(f"{task}: planning ({method})", 1)
-        work = [as_execution(task, s, p) for _, s, p in planned]
-        outcomes: list[ExecutionResult] = []
-        for start in range(0, len(work), chunk):
-            outcomes += pool.map(execute_trial, work[start : start + chunk])
-            report(f"{task}: executing", len(work[start : start + chunk]))
-        for (method, s, plan), item, outcome in zip(planned, work, outcomes, strict=True):
-            result.trials.append(Trial(task, method, s, plan.seconds, outcome, item.candidates[0]))
+            work = [as_execution(task, s, p) for _, s, p in planned]
+            outcomes = pool.map(execute_trial, work)
+            for (method, s, plan), item, outcome in zip(planned, work, outcomes, strict=True):
+                trial = Trial(task, method, s, plan.seconds, outcome, item.candidates[0])
+                done[(task, method, s)] = trial
+                if log is not None:
+                    log.append(trial)
+            report(f"{task}: executing", len(work))
+        result.trials += [done[k] for k in keys]
     return result
 
 

@@ -155,6 +155,13 @@ def tasks(
     ray: Annotated[
         str | None, typer.Option(help="Ray address for the simulations (default: local processes)")
     ] = None,
+    log: Annotated[
+        Path | None,
+        typer.Option(
+            help="resumable trial log (JSON lines): trials already in it are reused, new ones "
+            "appended as they finish; rerun the same command to continue an interrupted run"
+        ),
+    ] = None,
 ) -> None:
     """Success rates on the simulated tasks: top-1 and any-5 per task and method, failures by step
     and type, median planning time. Writes the markdown report (with the command), the JSON, a
@@ -165,6 +172,7 @@ def tasks(
     from gfc.bench.methods import METHODS, MissingModelsError, PlanSettings, needs_models
     from gfc.bench.report import plot_top1, render_key_frames, results_markdown
     from gfc.bench.tasks import random_weights_library, run_benchmark, summarise
+    from gfc.bench.trial_log import TrialLog, log_header
     from gfc.planner.library import SkillLibrary
     from gfc.pool import make_pool
     from gfc.tasks import ALL_TASKS
@@ -187,7 +195,14 @@ def tasks(
         source = f"skill models: the skill store at `{store.location}` (latest version of each)"
     settings = PlanSettings(candidates=candidates, steps=steps, screen=screen)
     total = 2 * len(names) * len(methods) * trials
+    pool = make_pool(ray, processes, keep_alive=True)
     try:
+        trial_log = None
+        if log is not None:
+            weights = "random" if random_weights else "store"
+            header = log_header(names, methods, library, settings, threads, weights)
+            trial_log = TrialLog(log, header)
+            console.print(f"trial log {log}: {len(trial_log)} trials recorded")
         with Progress(console=console, transient=True) as progress:
             bar = progress.add_task("starting", total=total)
             result = run_benchmark(
@@ -195,14 +210,19 @@ def tasks(
                 methods,
                 trials,
                 library,
-                make_pool(ray, processes),
+                pool,
                 settings,
                 seed=seed,
                 on_progress=phase_logger(progress, bar, console),
+                log=trial_log,
             )
     except (MissingModelsError, KeyError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(2) from None
+    finally:
+        close = getattr(pool, "close", None)
+        if close is not None:
+            close()
     summary = summarise(result)
     strips = render_key_frames(result, out.parent / out.stem) if frames else []
     # The exact command line when run as `gfc bench tasks ...`; not invented when called otherwise.

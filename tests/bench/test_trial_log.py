@@ -1,0 +1,165 @@
+"""The resumable trial log of ``gfc bench tasks --log``: round trips, resuming without redoing
+work, refusing a log written under other settings, and surviving a line torn by a crash."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from gfc.bench.methods import PlanSettings
+from gfc.bench.tasks import Execution, ExecutionResult, StepFailure, Trial, run_benchmark, summarise
+from gfc.bench.trial_log import TrialLog, TrialLogMismatch, trial_from_json, trial_to_json
+from gfc.cli.app import app
+
+TASK = "pot_reorientation"
+HEADER: dict[str, Any] = {"settings": {"candidates": 5, "steps": 4}, "models": {"pick.pot": "pick.pot@4"}}
+
+
+class CountingPool:
+    """Stands in for the simulator: every candidate list 'succeeds' when its seed is even."""
+
+    def __init__(self) -> None:
+        self.executed: list[tuple[str, int]] = []
+
+    def map(self, fn: Callable[[Any], Any], items: Iterable[Execution]) -> list[ExecutionResult]:
+        out = []
+        for item in items:
+            self.executed.append((item.task, item.seed))
+            ok = item.seed % 2 == 0
+            failure = None if ok else StepFailure(0, "pick", 3, "slipped")
+            out.append(ExecutionResult(ok, ok, failure, ok, 1 if ok else 5))
+        return out
+
+
+def a_trial(seed: int, failure: StepFailure | None = None) -> Trial:
+    ok = failure is None
+    result = ExecutionResult(ok, ok, failure, ok, 1)
+    return Trial(TASK, "random", seed, 0.25, result, ((0.1, 0.2, 0.3), None))
+
+
+finite = st.floats(min_value=-10, max_value=10, allow_nan=False)
+
+
+@given(
+    actions=st.lists(st.one_of(st.none(), st.lists(finite, min_size=1, max_size=9)), max_size=12),
+    failure=st.one_of(
+        st.none(), st.builds(StepFailure, st.integers(0, 20), st.text(), st.integers(1, 3), st.text())
+    ),
+)
+def test_a_trial_survives_json_up_to_six_decimals(
+    actions: list[list[float] | None], failure: StepFailure | None
+) -> None:
+    trial = Trial(
+        TASK,
+        "gfc",
+        7,
+        0.5,
+        ExecutionResult(False, True, failure, True, 3),
+        tuple(None if a is None else tuple(a) for a in actions),
+    )
+    back = trial_from_json(json.loads(json.dumps(trial_to_json(trial))))
+    assert back.result == trial.result and (back.task, back.method, back.seed) == (TASK, "gfc", 7)
+    assert len(back.top1_actions) == len(trial.top1_actions)
+    for got, want in zip(back.top1_actions, trial.top1_actions, strict=True):
+        assert (got is None) == (want is None)
+        if got is not None and want is not None:
+            assert got == pytest.approx(want, abs=5e-7)
+
+
+def test_a_resumed_run_executes_only_the_missing_trials(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    first_pool = CountingPool()
+    first = run_benchmark(
+        [TASK], ["random"], 3, None, first_pool, PlanSettings(candidates=5), log=TrialLog(path, HEADER)
+    )
+    assert first_pool.executed == [(TASK, 0), (TASK, 1), (TASK, 2)]
+
+    pool = CountingPool()
+    log = TrialLog(path, HEADER)
+    assert len(log) == 3
+    again = run_benchmark([TASK], ["random"], 5, None, pool, PlanSettings(candidates=5), chunk=1, log=log)
+    assert pool.executed == [(TASK, 3), (TASK, 4)]  # seeds 0-2 came from the log
+    assert [t.seed for t in again.trials] == [0, 1, 2, 3, 4]
+    assert [t.result for t in again.trials[:3]] == [t.result for t in first.trials]
+    assert summarise(again)["tasks"][TASK]["random"]["top1"] == pytest.approx(3 / 5)
+    assert len(path.read_text().splitlines()) == 1 + 5  # the header and one line per trial
+
+
+def test_a_log_from_other_settings_is_refused_and_left_alone(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    log = TrialLog(path, HEADER)
+    log.append(a_trial(0))
+    before = path.read_bytes()
+    other = {**HEADER, "models": {"pick.pot": "pick.pot@3"}}
+    with pytest.raises(
+        TrialLogMismatch, match=r"model pick\.pot: log has pick\.pot@4, this run has pick\.pot@3"
+    ):
+        TrialLog(path, other)
+    with pytest.raises(TrialLogMismatch, match=r"settings: log has"):
+        TrialLog(path, {**HEADER, "settings": {"candidates": 32, "steps": 4}})
+    assert path.read_bytes() == before
+
+
+def test_more_models_extend_the_header_and_keep_the_trials(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    TrialLog(path, HEADER).append(a_trial(0))
+    wider = {**HEADER, "models": {**HEADER["models"], "move.pot": "move.pot@2"}}
+    log = TrialLog(path, wider)
+    assert len(log) == 1
+    assert json.loads(path.read_text().splitlines()[0])["models"] == wider["models"]
+    assert len(TrialLog(path, HEADER)) == 1  # the narrower run still fits
+
+
+def test_a_torn_last_line_is_dropped_and_appending_continues(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    log = TrialLog(path, HEADER)
+    log.append(a_trial(0))
+    with path.open("a") as handle:
+        handle.write('{"task": "pot_reorientation", "method": "ran')  # the crash
+    log = TrialLog(path, HEADER)
+    assert [t.seed for t in log] == [0]
+    log.append(a_trial(1, StepFailure(0, "pick", 1, "no IK")))
+    assert [t.seed for t in TrialLog(path, HEADER)] == [0, 1]
+
+
+def test_a_damaged_record_in_the_middle_is_an_error_with_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    log = TrialLog(path, HEADER)
+    log.append(a_trial(0))
+    log.append(a_trial(1))
+    lines = path.read_text().splitlines()
+    lines[1] = lines[1][:20]
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(TrialLogMismatch, match=r"trials\.jsonl:2: not a trial record"):
+        TrialLog(path, HEADER)
+
+
+def test_recording_a_trial_twice_is_refused(tmp_path: Path) -> None:
+    log = TrialLog(tmp_path / "trials.jsonl", HEADER)
+    log.append(a_trial(0))
+    with pytest.raises(ValueError, match="already recorded"):
+        log.append(a_trial(0))
+
+
+@pytest.mark.slow
+def test_the_cli_continues_a_run_from_its_log(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    args = ["bench", "tasks", "--tasks", TASK, "--methods", "random", "--candidates", "5", "--no-frames"]
+    args += ["--processes", "1", "--out", str(tmp_path / "r.md"), "--log", str(path)]
+    first = CliRunner().invoke(app, [*args, "--trials", "1"])
+    assert first.exit_code == 0, first.output
+    assert "0 trials recorded" in " ".join(first.output.split())  # (rich wraps long lines)
+    second = CliRunner().invoke(app, [*args, "--trials", "2"])
+    assert second.exit_code == 0, second.output
+    said = " ".join(second.output.split())
+    assert "1 trials recorded" in said and "1 trials from the log" in said
+    assert len(path.read_text().splitlines()) == 1 + 2
+    refused = CliRunner().invoke(app, [*args, "--trials", "2", "--candidates", "6"])
+    assert refused.exit_code == 2 and "written by a different run" in " ".join(refused.output.split())

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 import torch
@@ -107,6 +108,21 @@ def test_stacked_models_equal_individual_models() -> None:
     out = stack.denoise(x, sigma.expand(2, 4), present)
     assert torch.allclose(LAYOUT.unpad(out[0]), denoise_flat(a, xa, sigma), atol=1e-5)
     assert torch.allclose(b_layout.unpad(out[1, :, :3]), denoise_flat(b, xb, sigma), atol=1e-5)
+
+
+def test_models_trained_with_other_dropout_stack_and_other_architectures_do_not() -> None:
+    """Dropout is a training setting: a bank may mix rates (ADR 0004), and then runs without."""
+    a = randomised(single_model(LAYOUT, SMALL), 1)
+    b = randomised(single_model(LAYOUT, replace(SMALL, dropout=0.0)), 2)
+    stack = StackedDenoiser.concatenate([a, b])
+    assert stack.network.config.dropout == 0.0
+    x, sigma = torch.randn(3, LAYOUT.total_dim), torch.full((3,), 0.4)
+    padded = LAYOUT.pad(x, SMALL.max_token_dim).expand(2, 3, 5, SMALL.max_token_dim)
+    both = stack.denoise(padded, sigma.expand(2, 3), torch.ones(2, 3, 5, dtype=torch.bool))
+    assert torch.allclose(LAYOUT.unpad(both[1]), denoise_flat(b, x, sigma), atol=1e-5)
+    wider = single_model(LAYOUT, replace(SMALL, hidden=64))
+    with pytest.raises(ValueError, match="hidden: 64 vs 32"):
+        StackedDenoiser.concatenate([a, wider])
 
 
 def test_rows_at_different_noise_levels_each_get_their_own_modulation() -> None:

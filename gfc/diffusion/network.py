@@ -19,7 +19,7 @@ needs exactly that: the score of one node under one skill's marginal.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import torch
@@ -195,10 +195,21 @@ class DiTStack(nn.Module):
 
     @staticmethod
     def concatenate(stacks: list[DiTStack]) -> DiTStack:
-        """One stack holding the models of several (same config), padded to the most tokens."""
+        """One stack holding the models of several (same architecture), padded to the most tokens.
+
+        Dropout is a training setting, not part of the architecture: models trained with
+        different rates stack into a bank with dropout 0 (ADR 0004's sharp models train without)."""
         config = stacks[0].config
-        if any(s.config != config for s in stacks):
-            raise ValueError("can only stack networks of one configuration")
+        if any(s.config.dropout != config.dropout for s in stacks):
+            config = replace(config, dropout=0.0)
+        for s in stacks:
+            differing = [
+                f"{k}: {v} vs {getattr(config, k)}"
+                for k, v in s.config.to_dict().items()
+                if k != "dropout" and v != getattr(config, k)
+            ]
+            if differing:
+                raise ValueError(f"can only stack networks of one architecture ({'; '.join(differing)})")
         n_tokens = max(s.n_tokens for s in stacks)
         out = DiTStack(config, sum(s.n_models for s in stacks), n_tokens)
         with torch.no_grad():

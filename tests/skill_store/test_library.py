@@ -120,3 +120,20 @@ def test_a_model_trained_with_another_action_frame_is_refused() -> None:
     )
     with pytest.raises(IncompatibleModelError, match=r"push.hook.block@1 .* retrain it"):
         check_action_frame(old, "push.hook.block@1")
+
+
+def test_the_packaged_library_banks_the_models_of_every_task() -> None:
+    """Every task's models, stacked as the planner stacks them (in factor order, mixed training
+    recipes included), from the library committed under skill_store/library."""
+    from gfc.bench.methods import required_models
+    from gfc.plan.compiler import compile_plan
+    from gfc.tasks import ALL_TASKS, sample_task
+    from skill_store import DEFAULT_LIBRARY
+
+    library = StoreLibrary(SkillStore(DEFAULT_LIBRARY))
+    for task in ALL_TASKS:
+        compiled = compile_plan(sample_task(task, 0).plan)
+        refs = [f.model for f in compiled.temporal]
+        bank = library.bank(refs)
+        assert bank.denoiser.network.n_models == len(refs), task
+        assert set(required_models(compiled)) <= {r.split("@")[0] for r in bank.versions.values()}

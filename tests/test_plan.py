@@ -345,3 +345,45 @@ def test_mutating_a_compiled_plan_input_does_not_change_it() -> None:
     graph = compile_plan(copy.deepcopy(plan))
     plan["skeleton"].clear()
     assert len(graph.temporal) == 4
+
+
+def test_a_yaw_goal_aims_inside_its_bound() -> None:
+    """tolerance_deg is what the simulator checks; the energy's sigma is a third of it, so a
+    heading right at the bound costs 3^2 / 2 and the factor's mass lies 99.7 % inside."""
+    import math
+
+    import torch
+
+    from gfc.constraints import scaled_residual
+
+    plan = {
+        "scene": {
+            "robots": [{"name": "left", "base": [0, 0.35, 0.625]}],
+            "objects": [{"name": "pot", "kind": "pot", "pose": [0.5, 0, 0.625, 0, 0, 0, 1]}],
+        },
+        "skeleton": [
+            {"skill": "pick", "robot": "left", "object": "pot"},
+            {"skill": "move", "robot": "left", "object": "pot"},
+        ],
+        "goal": [{"type": "yaw", "object": "pot", "yaw_deg": 30, "tolerance_deg": 6}],
+    }
+    (goal,) = [f for f in compile_plan(plan).spatial if f.type == "yaw"]
+    assert goal.params["tolerance"] == pytest.approx(math.radians(2.0))
+    at_bound = math.radians(36.0)
+    pose9 = torch.tensor(
+        [
+            [
+                0.5,
+                0.0,
+                0.7,
+                math.cos(at_bound),
+                math.sin(at_bound),
+                0.0,
+                -math.sin(at_bound),
+                math.cos(at_bound),
+                0.0,
+            ]
+        ]
+    )
+    residual = scaled_residual("yaw", [pose9], goal.params)
+    assert residual.abs().item() == pytest.approx(3.0, rel=1e-4)

@@ -5,8 +5,9 @@ one sitting. ``gfc bench tasks --log FILE`` appends each trial as soon as it has
 run the same command again and the trials already in the file are loaded, not redone, so a run
 can be stopped (Ctrl-C, a lost machine) and continued, or spread over several sittings.
 
-The first line is the log's header: what produced the trials (planner settings, the resolved
-version of every skill model the tasks use, the first seed). Trials made under another header
+The first line is the log's header: what produced the trials (planner settings, a fingerprint of
+the code that decides outcomes, the resolved version of every skill model). Trials made under
+another header
 are not comparable, so opening a log with a different header is refused with the differences
 named, and nothing in the file is touched. A last line cut short by a crash is dropped (and the
 file truncated to its last whole line) so the next append starts on a fresh line.
@@ -14,6 +15,7 @@ file truncated to its last whole line) so the next append starts on a fresh line
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from collections.abc import Iterator, Mapping, Sequence
@@ -85,6 +87,23 @@ def trial_from_json(data: Mapping[str, Any]) -> Trial:
     )
 
 
+# Code that decides how a trial turns out: everything in gfc except the command line and the
+# benchmark's own reporting and bookkeeping. A change there makes old trials incomparable.
+_NOT_OUTCOME_CODE = ("cli/", "bench/report.py", "bench/trial_log.py", "bench/latency.py", "data/")
+
+
+def code_fingerprint(root: Path | None = None) -> str:
+    """sha256 over the outcome-deciding source files of the gfc package (paths and bytes)."""
+    package = root or Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        relative = path.relative_to(package).as_posix()
+        if relative.startswith(_NOT_OUTCOME_CODE):
+            continue
+        digest.update(relative.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
 def log_header(
     tasks: Sequence[str],
     methods: Sequence[str],
@@ -94,7 +113,8 @@ def log_header(
     weights: str,
 ) -> dict[str, Any]:
     """What decides a trial's outcome besides its task and seed: the planner settings, where the
-    weights came from (``store`` or ``random``), and each skill model's resolved version."""
+    weights came from (``store`` or ``random``), the code (``code_fingerprint``) and each skill
+    model's resolved version."""
     models: dict[str, str] = {}
     if library is not None and any(needs_models(m) for m in methods):
         for task in tasks:
@@ -102,6 +122,7 @@ def log_header(
                 models[ref] = library.bank([ref]).versions[ref]
     return {
         "settings": {**asdict(settings), "threads": threads, "weights": weights},
+        "code": code_fingerprint(),
         "models": dict(sorted(models.items())),
     }
 

@@ -163,3 +163,17 @@ def test_the_cli_continues_a_run_from_its_log(tmp_path: Path) -> None:
     assert len(path.read_text().splitlines()) == 1 + 2
     refused = CliRunner().invoke(app, [*args, "--trials", "2", "--candidates", "6"])
     assert refused.exit_code == 2 and "written by a different run" in " ".join(refused.output.split())
+
+
+def test_the_code_fingerprint_follows_outcome_code_only(tmp_path: Path) -> None:
+    from gfc.bench.trial_log import code_fingerprint
+
+    (tmp_path / "sim").mkdir()
+    (tmp_path / "cli").mkdir()
+    (tmp_path / "sim" / "control.py").write_text("SPEED = 1.0\n")
+    (tmp_path / "cli" / "app.py").write_text("HELP = 'a'\n")
+    before = code_fingerprint(tmp_path)
+    (tmp_path / "cli" / "app.py").write_text("HELP = 'b'\n")
+    assert code_fingerprint(tmp_path) == before  # the command line does not decide outcomes
+    (tmp_path / "sim" / "control.py").write_text("SPEED = 2.0\n")
+    assert code_fingerprint(tmp_path) != before

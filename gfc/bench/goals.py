@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
+
+Z_95 = 1.959964  # two-sided 95 % normal quantile
 
 
 @dataclass(frozen=True)
@@ -36,6 +39,20 @@ def _pct(value: float) -> str:
     return f"{100 * value:.0f}%"
 
 
+def wilson_interval(successes: int, trials: int, z: float = Z_95) -> tuple[float, float]:
+    """Wilson score interval of a success rate (95 % by default): unlike the normal
+    approximation it stays inside [0, 1] and is sane at 0 or n successes."""
+    if trials <= 0:
+        return (0.0, 1.0)
+    p = successes / trials
+    denominator = 1.0 + z * z / trials
+    centre = (p + z * z / (2 * trials)) / denominator
+    half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denominator
+    low = 0.0 if successes == 0 else max(0.0, centre - half)  # exact at the ends (no rounding)
+    high = 1.0 if successes == trials else min(1.0, centre + half)
+    return (low, high)
+
+
 def verdicts(summary: dict[str, Any], method: str = "gfc") -> list[dict[str, Any]]:
     """Per task with a bar: ``method``'s top-1 against the paper, our goal and the best baseline."""
     out = []
@@ -43,14 +60,15 @@ def verdicts(summary: dict[str, Any], method: str = "gfc") -> list[dict[str, Any
         bar = BARS.get(task)
         if bar is None or method not in methods:
             continue
-        ours = methods[method]["top1"]
+        ours, n = methods[method]["top1"], methods[method]["trials"]
         baselines = {m: row["top1"] for m, row in methods.items() if m not in (method, "reference")}
         best = max(baselines.items(), key=lambda kv: kv[1], default=None)
         out.append(
             {
                 "task": task,
                 "top1": ours,
-                "trials": methods[method]["trials"],
+                "trials": n,
+                "top1_ci95": wilson_interval(round(ours * n), n),
                 "paper_gfc": bar.paper_gfc,
                 "goal": bar.goal,
                 "beats_paper": ours >= bar.paper_gfc,
@@ -69,17 +87,19 @@ def verdict_markdown(summary: dict[str, Any], method: str = "gfc") -> list[str]:
     lines = [
         "## Against the paper and our goals",
         "",
-        f"Top-1 of `{method}` here; the paper's GFC column is its 100-trial table. A row that "
-        "misses says so; the failure tables below say at which step and of which type.",
+        f"Top-1 of `{method}` here, with its 95 % interval (Wilson); the paper's GFC column is its "
+        "100-trial table. A row that misses says so; the failure tables below say at which step and "
+        "of which type.",
         "",
-        "| task | ours (top-1) | trials | paper GFC | goal | >= paper | >= goal | best baseline | above it |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| task | ours (top-1) | 95 % interval | trials | paper GFC | goal | >= paper | >= goal | best baseline | above it |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in rows:
         best = r["best_baseline"]
         best_cell = "none run" if best is None else f"{best['method']} {_pct(best['top1'])}"
         lines.append(
-            f"| {r['task']} | {_pct(r['top1'])} | {r['trials']} | {_pct(r['paper_gfc'])} | {_pct(r['goal'])} "
+            f"| {r['task']} | {_pct(r['top1'])} | {100 * r['top1_ci95'][0]:.0f}-{_pct(r['top1_ci95'][1])} "
+            f"| {r['trials']} | {_pct(r['paper_gfc'])} | {_pct(r['goal'])} "
             f"| {'yes' if r['beats_paper'] else 'MISSED'} | {'yes' if r['meets_goal'] else 'MISSED'} "
             f"| {best_cell} | {'yes' if r['above_baselines'] else 'NO'} |"
         )

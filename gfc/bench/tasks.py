@@ -173,13 +173,15 @@ def run_benchmark(
     chunk: int = 16,
     on_progress: Progress | None = None,
     log: TrialRecord | None = None,
+    execute: bool = True,
 ) -> BenchResult:
     """Plan and execute ``trials`` scenes per task and method. Progress units: one per trial
     planned and one per trial executed (``2 * len(tasks) * len(methods) * trials`` in all).
 
     With a ``log``, trials it already holds are taken from it instead of being redone, and each
     new trial is appended to it as soon as its chunk has been executed: an interrupted run loses
-    at most one chunk."""
+    at most one chunk. With ``execute=False`` nothing is planned or run: the result holds the
+    log's trials only (a report of what has been measured so far)."""
     unknown = [t for t in tasks if t not in ALL_TASKS]
     if unknown:
         raise KeyError(f"unknown tasks {unknown} (known: {', '.join(sorted(ALL_TASKS))})")
@@ -201,7 +203,7 @@ def run_benchmark(
                 done[key] = found
         if done:
             report(f"{task}: {len(done)} trials from the log", 2 * len(done))
-        todo = [k for k in keys if k not in done]
+        todo = [k for k in keys if k not in done] if execute else []
         for start in range(0, len(todo), chunk):
             planned: list[tuple[str, int, MethodPlan]] = []
             for _, method, trial_seed in todo[start : start + chunk]:
@@ -216,7 +218,7 @@ def run_benchmark(
                 if log is not None:
                     log.append(trial)
             report(f"{task}: executing", len(work))
-        result.trials += [done[k] for k in keys]
+        result.trials += [done[k] for k in keys if k in done]
     return result
 
 
@@ -249,6 +251,8 @@ def summarise(result: BenchResult) -> dict[str, Any]:
         for method in result.methods:
             trials = [t for t in result.trials if t.task == task and t.method == method]
             n = len(trials)
+            if n == 0:
+                continue  # a report of a partial log: a method not run on this task yet
             tasks[task][method] = {
                 "top1": sum(t.result.top1_success for t in trials) / n if n else 0.0,
                 "any5": sum(t.result.any_success for t in trials) / n if n else 0.0,
@@ -256,4 +260,6 @@ def summarise(result: BenchResult) -> dict[str, Any]:
                 "plan_seconds_median": statistics.median(t.plan_seconds for t in trials) if n else 0.0,
                 "failures": failure_table(task, trials),
             }
+        if not tasks[task]:
+            del tasks[task]  # a report of a partial log: a task not run yet
     return {"tasks": tasks}

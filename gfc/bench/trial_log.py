@@ -127,11 +127,11 @@ def log_header(
     }
 
 
-def _differences(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[str]:
+def _differences(old: Mapping[str, Any], new: Mapping[str, Any], ignore: Sequence[str] = ()) -> list[str]:
     """What makes two headers' trials incomparable. Models are compared where both name them:
     a run over more tasks may bring more models, but a model at another version may not."""
     out = []
-    for key in sorted((set(old) | set(new)) - {"models"}):
+    for key in sorted((set(old) | set(new)) - {"models", *ignore}):
         if old.get(key) != new.get(key):
             out.append(f"{key}: log has {old.get(key)!r}, this run has {new.get(key)!r}")
     old_models, new_models = old.get("models", {}), new.get("models", {})
@@ -152,10 +152,16 @@ def _replace(path: Path, data: bytes) -> None:
 
 
 class TrialLog:
-    """Open (or create) the log at ``path`` for a run described by ``header``."""
+    """Open (or create) the log at ``path`` for a run described by ``header``.
 
-    def __init__(self, path: Path, header: Mapping[str, Any]) -> None:
+    ``reading_only``: the caller will not add trials (a report of what the log holds), so other
+    code than the log's is no reason to refuse; ``code_matches`` then says whether it is the same.
+    """
+
+    def __init__(self, path: Path, header: Mapping[str, Any], reading_only: bool = False) -> None:
         self.path = path
+        self.reading_only = reading_only
+        self.code_matches = True
         self.header = {"format": FORMAT, **header}
         self.trials: dict[TrialKey, Trial] = {}
         if path.exists() and path.stat().st_size > 0:
@@ -177,7 +183,8 @@ class TrialLog:
             raise TrialLogMismatch(f"{self.path}: the first line is not a trial-log header ({exc})") from None
         if not isinstance(header, dict) or header.get("format") != FORMAT:
             raise TrialLogMismatch(f"{self.path}: not a trial log of this version (expected format {FORMAT})")
-        differences = _differences(header, self.header)
+        self.code_matches = header.get("code") == self.header.get("code")
+        differences = _differences(header, self.header, ignore=("code",) if self.reading_only else ())
         if differences:
             raise TrialLogMismatch(
                 f"{self.path} was written by a different run, so its trials cannot be continued: "
@@ -194,7 +201,9 @@ class TrialLog:
             self.trials[(trial.task, trial.method, trial.seed)] = trial
         models = {**header.get("models", {}), **self.header.get("models", {})}
         self.header = {**header, "models": models}
-        if models != header.get("models", {}):  # more models than before: the header says so
+        if self.reading_only:
+            self.header = dict(header)
+        elif models != header.get("models", {}):  # more models than before: the header says so
             lines[0] = json.dumps(self.header, separators=(",", ":")).encode()
             _replace(self.path, b"".join(line + b"\n" for line in lines))  # (drops a torn line)
         elif torn:
@@ -220,6 +229,8 @@ class TrialLog:
         return len(self.trials)
 
     def append(self, trial: Trial) -> None:
+        if self.reading_only:
+            raise ValueError(f"{self.path} was opened for reading only")
         key = (trial.task, trial.method, trial.seed)
         if key in self.trials:
             raise ValueError(f"{self.path}: trial {key} is already recorded")

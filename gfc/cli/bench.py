@@ -162,6 +162,14 @@ def tasks(
             "appended as they finish; rerun the same command to continue an interrupted run"
         ),
     ] = None,
+    report_only: Annotated[
+        bool,
+        typer.Option(
+            "--report-only",
+            help="plan and run nothing: write the report from the trials --log holds (up to --trials "
+            "per task and method; each row says how many it has)",
+        ),
+    ] = False,
 ) -> None:
     """Success rates on the simulated tasks: top-1 and any-5 per task and method, failures by step
     and type, median planning time. Writes the markdown report (with the command), the JSON, a
@@ -195,13 +203,16 @@ def tasks(
         source = f"skill models: the skill store at `{store.location}` (latest version of each)"
     settings = PlanSettings(candidates=candidates, steps=steps, screen=screen)
     total = 2 * len(names) * len(methods) * trials
+    if report_only and log is None:
+        console.print("[red]error:[/red] --report-only reads the trials from a log: give it with --log FILE")
+        raise typer.Exit(2)
     pool = make_pool(ray, processes, keep_alive=True)
     try:
         trial_log = None
         if log is not None:
             weights = "random" if random_weights else "store"
             header = log_header(names, methods, library, settings, threads, weights)
-            trial_log = TrialLog(log, header)
+            trial_log = TrialLog(log, header, reading_only=report_only)
             console.print(f"trial log {log}: {len(trial_log)} trials recorded")
         with Progress(console=console, transient=True) as progress:
             bar = progress.add_task("starting", total=total)
@@ -215,6 +226,7 @@ def tasks(
                 seed=seed,
                 on_progress=phase_logger(progress, bar, console),
                 log=trial_log,
+                execute=not report_only,
             )
     except (MissingModelsError, KeyError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
@@ -243,6 +255,12 @@ def tasks(
             else "off (candidates in each method's own order)"
         ),
     ]
+    if trial_log is not None:
+        notes.append(
+            f"trial log: `{log}` (code fingerprint {trial_log.header['code']}; {len(trial_log)} trials in it)"
+            + ("; **report only**: nothing was run for this report" if report_only else "")
+            + ("" if trial_log.code_matches else "; the trials were made by other code than this checkout's")
+        )
     plot_path = plot or out.parent / out.stem / "top1.png"
     plot_top1(summary, plot_path)
     notes.append(

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
-from gfc.bench.goals import BARS, verdict_markdown, verdicts
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gfc.bench.goals import BARS, verdict_markdown, verdicts, wilson_interval
 from gfc.tasks import ALL_TASKS
 
 
@@ -32,4 +36,19 @@ def test_verdicts_compare_with_the_paper_the_goal_and_the_best_baseline() -> Non
     assert pour["meets_goal"] and pour["above_baselines"]  # the reference oracle is no baseline
     assert pour["best_baseline"] == {"method": "random", "top1": 0.1}
     text = "\n".join(verdict_markdown(summary))
-    assert "| hammer_place | 70% | 10 | 63% | 90% | yes | MISSED | linear_chain 75% | NO |" in text
+    assert "| hammer_place | 70% | 40-89% | 10 | 63% | 90% | yes | MISSED | linear_chain 75% | NO |" in text
+
+
+def test_wilson_interval_matches_known_values() -> None:
+    assert wilson_interval(50, 100) == pytest.approx((0.4038, 0.5962), abs=1e-4)
+    assert wilson_interval(0, 20) == pytest.approx((0.0, 0.1611), abs=1e-4)
+    assert wilson_interval(7, 10) == pytest.approx((0.3968, 0.8922), abs=1e-4)
+
+
+@given(n=st.integers(1, 500), data=st.data())
+def test_wilson_interval_holds_the_observed_rate_inside_unit_bounds(n: int, data: st.DataObject) -> None:
+    k = data.draw(st.integers(0, n))
+    low, high = wilson_interval(k, n)
+    assert 0.0 <= low <= k / n <= high <= 1.0
+    wider_low, wider_high = wilson_interval(4 * k, 4 * n)
+    assert wider_high - wider_low <= high - low  # four times the trials: a narrower interval

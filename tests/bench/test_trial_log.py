@@ -177,3 +177,36 @@ def test_the_code_fingerprint_follows_outcome_code_only(tmp_path: Path) -> None:
     assert code_fingerprint(tmp_path) == before  # the command line does not decide outcomes
     (tmp_path / "sim" / "control.py").write_text("SPEED = 2.0\n")
     assert code_fingerprint(tmp_path) != before
+
+
+def test_reading_only_accepts_other_code_and_writes_nothing(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    TrialLog(path, {**HEADER, "code": "aaaa"}).append(a_trial(0))
+    with path.open("a") as handle:
+        handle.write('{"task": "pot')  # a writer busy with its next line
+    before = path.read_bytes()
+    with pytest.raises(TrialLogMismatch, match="code: log has 'aaaa', this run has 'bbbb'"):
+        TrialLog(path, {**HEADER, "code": "bbbb"})
+    reader = TrialLog(path, {**HEADER, "code": "bbbb"}, reading_only=True)
+    assert [t.seed for t in reader] == [0] and not reader.code_matches
+    with pytest.raises(ValueError, match="reading only"):
+        reader.append(a_trial(1))
+    assert path.read_bytes() == before
+    with pytest.raises(TrialLogMismatch, match=r"model pick\.pot"):  # models still must agree
+        TrialLog(path, {**HEADER, "code": "bbbb", "models": {"pick.pot": "pick.pot@9"}}, reading_only=True)
+
+
+def test_report_only_runs_nothing_and_reports_what_the_log_holds(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    pool = CountingPool()
+    run_benchmark([TASK], ["random"], 2, None, pool, PlanSettings(candidates=5), log=TrialLog(path, HEADER))
+    pool.executed.clear()
+    log = TrialLog(path, HEADER, reading_only=True)
+    settings = PlanSettings(candidates=5)
+    partial = run_benchmark(
+        [TASK, "hammer_place"], ["random"], 5, None, pool, settings, log=log, execute=False
+    )
+    assert pool.executed == []
+    summary = summarise(partial)["tasks"]
+    assert set(summary) == {TASK}  # hammer_place has no trials yet: no row
+    assert summary[TASK]["random"]["trials"] == 2

@@ -573,7 +573,7 @@ class _Compiler:
             params.update(tolerance=spec.tolerance, transform=spec.transform)
         elif isinstance(spec, Yaw):
             # tolerance_deg is the pass bound the simulator checks; an energy with that as its
-            # sigma misses it a third of the time (pot turns landed 5-9 degrees off, 13 of 80
+            # sigma misses it a third of the time (pot turns landed 5-9 degrees off, 13 of 96
             # top-1 trials). A third of it puts 99.7 % of the factor's mass inside the bound.
             params.update(
                 yaw=math.radians(spec.yaw_deg), tolerance=math.radians(spec.tolerance_deg) / BOUND_SIGMAS

@@ -196,11 +196,8 @@ def run_benchmark(
     result = BenchResult(list(tasks), list(methods))
     for task in tasks:
         keys = [(task, method, seed + i) for method in methods for i in range(trials)]
-        done: dict[tuple[str, str, int], Trial] = {}
-        for key in keys:
-            found = None if log is None else log.get(key)
-            if found is not None:
-                done[key] = found
+        logged = {k: log.get(k) for k in keys} if log is not None else {}
+        done = {k: t for k, t in logged.items() if t is not None}
         if done:
             report(f"{task}: {len(done)} trials from the log", 2 * len(done))
         todo = [k for k in keys if k not in done] if execute else []
@@ -254,10 +251,10 @@ def summarise(result: BenchResult) -> dict[str, Any]:
             if n == 0:
                 continue  # a report of a partial log: a method not run on this task yet
             tasks[task][method] = {
-                "top1": sum(t.result.top1_success for t in trials) / n if n else 0.0,
-                "any5": sum(t.result.any_success for t in trials) / n if n else 0.0,
+                "top1": sum(t.result.top1_success for t in trials) / n,
+                "any5": sum(t.result.any_success for t in trials) / n,
                 "trials": n,
-                "plan_seconds_median": statistics.median(t.plan_seconds for t in trials) if n else 0.0,
+                "plan_seconds_median": statistics.median(t.plan_seconds for t in trials),
                 "failures": failure_table(task, trials),
             }
         if not tasks[task]:

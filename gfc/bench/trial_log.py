@@ -199,11 +199,12 @@ class TrialLog:
             except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
                 raise TrialLogMismatch(f"{self.path}:{number}: not a trial record ({exc})") from None
             self.trials[(trial.task, trial.method, trial.seed)] = trial
-        models = {**header.get("models", {}), **self.header.get("models", {})}
-        self.header = {**header, "models": models}
         if self.reading_only:
             self.header = dict(header)
-        elif models != header.get("models", {}):  # more models than before: the header says so
+            return
+        models = {**header.get("models", {}), **self.header.get("models", {})}
+        self.header = {**header, "models": models}
+        if models != header.get("models", {}):  # more models than before: the header says so
             lines[0] = json.dumps(self.header, separators=(",", ":")).encode()
             _replace(self.path, b"".join(line + b"\n" for line in lines))  # (drops a torn line)
         elif torn:

@@ -2,6 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import pytest
 
 from gfc.pool import InlinePool, LocalPool, RayPool, make_pool
@@ -34,3 +41,59 @@ def test_ray_pool_runs_tasks_on_a_local_cluster() -> None:
     assert isinstance(pool, RayPool)
     results = pool.map(square_plus_pid, range(5))
     assert [r[0] for r in results] == [0, 1, 4, 9, 16]
+
+
+def _sleep(seconds: float) -> float:
+    import time
+
+    time.sleep(seconds)
+    return seconds
+
+
+def _pid_after(seconds: float) -> int:
+    """The worker's pid, after a pause long enough for both workers to get items."""
+    _sleep(seconds)
+    return os.getpid()
+
+
+# A parent with two kept-alive workers: it prints their pids, leaves them a long queue and waits.
+_ORPHANING_PARENT = """
+import sys, threading
+from gfc.pool import LocalPool
+from tests.test_pool import _pid_after, _sleep
+pool = LocalPool(2, keep_alive=True)
+print(" ".join(str(p) for p in sorted(set(pool.map(_pid_after, [0.3] * 4)))), flush=True)
+threading.Thread(target=pool.map, args=(_sleep, [120.0] * 4), daemon=True).start()
+sys.stdin.read()
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
+def test_workers_die_when_the_parent_is_killed() -> None:
+    """SIGTERM on a run's parent takes its pool workers with it (they used to keep simulating)."""
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _ORPHANING_PARENT],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=Path(__file__).resolve().parents[1],
+    )
+    assert parent.stdout is not None
+    workers = [int(p) for p in parent.stdout.readline().split()]
+    assert workers and all(_alive(pid) for pid in workers)
+    parent.send_signal(signal.SIGTERM)
+    parent.wait(timeout=30)
+    deadline = time.monotonic() + 30
+    while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in workers), "a worker outlived its killed parent"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # A dead child not yet reaped by its (also dead) parent is a zombie: count it as gone.
+    stat = Path(f"/proc/{pid}/stat")
+    return not (stat.exists() and stat.read_text().split(") ", 1)[1].startswith("Z"))

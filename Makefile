@@ -27,14 +27,14 @@ bench: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/mypy gfc skill_store $(wildcard service clients)
+	$(BIN)/mypy gfc skill_store $(wildcard service clients scripts)
 	$(BIN)/pytest -n 2 --dist loadgroup
 
 lint: $(STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .
 
 typecheck: $(STAMP)
-	$(BIN)/mypy gfc skill_store $(wildcard service clients)
+	$(BIN)/mypy gfc skill_store $(wildcard service clients scripts)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache

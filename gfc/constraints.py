@@ -104,6 +104,13 @@ def yaw(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     return wrap_angle(heading).unsqueeze(-1)
 
 
+def upright(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """The object's z axis points up: its horizontal components (the sine of the tilt, split
+    into x and y) are zero. (B, 2)"""
+    (obj,) = nodes
+    return _pose_of(obj)[..., :2, 2]
+
+
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
     a, b = nodes
     diff = a[..., :3] - b[..., :3]
@@ -132,6 +139,7 @@ RESIDUALS: dict[str, Residual] = {
     "fixed_transform": fixed_transform,
     "relative_pose": relative_pose,
     "yaw": yaw,
+    "upright": upright,
     "near": near,
     "far": far,
 }

@@ -137,6 +137,27 @@ def test_yaw_residual_wraps_around() -> None:
     assert float(r) == pytest.approx(math.radians(-2), abs=1e-9)
 
 
+@given(st.floats(0.0, 1.5), st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi))
+def test_upright_residual_is_the_sine_of_the_tilt(tilt: float, axis: float, yaw: float) -> None:
+    """Turned about the vertical by any yaw, then tilted by ``tilt`` about a horizontal axis at
+    angle ``axis``: the residual's norm is sin(tilt), pointing where the z axis leans."""
+    horizontal = np.array([math.cos(axis), math.sin(axis), 0.0])
+    k = np.array(
+        [
+            [0, -horizontal[2], horizontal[1]],
+            [horizontal[2], 0, -horizontal[0]],
+            [-horizontal[1], horizontal[0], 0],
+        ]
+    )
+    tilted = np.eye(3) + math.sin(tilt) * k + (1 - math.cos(tilt)) * k @ k  # Rodrigues
+    pose = np.eye(4)
+    pose[:3, :3] = tilted @ pose7_to_matrix([0, 0, 0, *yaw_quat(yaw)])[:3, :3]
+    node = torch.tensor(matrix_to_pose9(pose)).unsqueeze(0)
+    r = constraints.upright([node], {}).numpy()[0]
+    assert float(np.linalg.norm(r)) == pytest.approx(math.sin(tilt), abs=1e-9)
+    assert np.allclose(r, tilted[:2, 2], atol=1e-9)
+
+
 def test_fixed_transform_between_two_states() -> None:
     left1, right1 = _node(0.5, 0.1, 0.8), _node(0.5, -0.1, 0.8)
     # both grippers moved rigidly together: turned by 45 degrees about the world origin's z

@@ -387,3 +387,24 @@ def test_a_yaw_goal_aims_inside_its_bound() -> None:
     )
     residual = scaled_residual("yaw", [pose9], goal.params)
     assert residual.abs().item() == pytest.approx(3.0, rel=1e-4)
+
+
+def test_a_pour_asks_both_containers_upright_before_it() -> None:
+    """The pour's precondition enters as implied upright factors on the versions of the mug and
+    the cup that the pour reads (after the meeting moves), whatever the plan states."""
+    from gfc.skills.signatures import POUR_UPRIGHT_DEG
+    from gfc.tasks import sample_task
+
+    graph = compile_plan(sample_task("pour_cup", 0).plan)
+    upright = [f for f in graph.spatial if f.type == "upright"]
+    assert [f.source for f in upright] == ["implied", "implied"]
+    assert {graph.nodes[f.nodes[0]].entity for f in upright} == {"mug", "cup"}
+    meet_moves = [t for t in graph.temporal if t.skill == "move"]
+    written = {tok.node for t in meet_moves for tok in t.tokens if tok.phase == "effect"}
+    assert all(f.nodes[0] in written for f in upright)
+    import math
+
+    assert upright[0].params["tolerance"] == pytest.approx(math.sin(math.radians(POUR_UPRIGHT_DEG)) / 3)
+    no_pour = sample_task("pour_cup", 0).plan.model_dump(by_alias=True)
+    no_pour["skeleton"] = no_pour["skeleton"][:-1]
+    assert not [f for f in compile_plan(no_pour).spatial if f.type == "upright"]

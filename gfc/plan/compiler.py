@@ -39,7 +39,7 @@ from gfc.plan.schema import (
     Step,
     Yaw,
 )
-from gfc.skills.signatures import SKILLS, Role, SkillSpec, default_model_key
+from gfc.skills.signatures import POUR_UPRIGHT_DEG, SKILLS, Role, SkillSpec, default_model_key
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,7 @@ def parse_plan(data: Any) -> PlanRequest:
 
 # A yaw goal's energy has sigma = tolerance / BOUND_SIGMAS (see the Yaw branch of the compiler).
 BOUND_SIGMAS = 3.0
+POUR_UPRIGHT_SIN = math.sin(math.radians(POUR_UPRIGHT_DEG))  # the upright factor's residual bound
 
 _UNION_TAGS = {
     "inside",
@@ -389,6 +390,7 @@ class _Compiler:
                 # head aligned over the nail) rather than a learned factor.
                 self.apply_holding(step, spec)
                 self.terminal.append((i, spec.name))
+                self.add_preconditions(step)
                 continue
             tokens: list[FactorToken] = []
             action_id: int | None = None
@@ -452,6 +454,20 @@ class _Compiler:
                     (action_id,) if link.with_action and action_id is not None else (),
                 )
             )
+
+    def add_preconditions(self, step: Step) -> None:
+        """A pour's precondition that holds whatever the plan says: both containers upright
+        (tilted less than POUR_UPRIGHT_DEG) when it starts. Without it the two move models of a
+        pour meeting tilt the containers freely and about one candidate in eight failed on it
+        alone (docs/adr/0005). Where the lip goes is the plan's to state (an ``aligned``)."""
+        if step.skill != "pour":
+            return
+        for entity in (step.object, step.target):
+            node = self.state.latest.get(entity) if entity is not None else None
+            if node is None:
+                continue
+            params = {"weight": 1.0, "tolerance": POUR_UPRIGHT_SIN / BOUND_SIGMAS}
+            self.spatial.append(SpatialFactor("upright", "implied", len(self.spatial), (node,), params))
 
     def add_closed_chain(
         self, valid: list[tuple[int, Step, SkillSpec]], before: dict[str, int], after: dict[str, int]

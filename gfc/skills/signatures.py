@@ -36,6 +36,7 @@ KIND_DIM: dict[TokenKind, int] = {"robot": ROBOT_STATE_DIM, "object": OBJECT_STA
 
 POSE_ACTION = ("x", "y", "z", "r11", "r21", "r31", "r12", "r22", "r32")
 PICK_LIFT = 0.12  # m a pick lifts the grasped object straight up (part of what "pick" means)
+POUR_UPRIGHT_DEG = 15.0  # a pour starts with both containers within this of vertical
 
 
 @dataclass(frozen=True)

@@ -29,11 +29,12 @@ from gfc.sim.skills.motions import (
 )
 from gfc.sim.world import World, bead_positions, object_matrix
 from gfc.sim.world import step as physics_step
+from gfc.skills.signatures import POUR_UPRIGHT_DEG
 
 STRIKE_XY_TOLERANCE = 0.02  # m between the striking face's centre and the nail top
 STRIKE_MAX_GAP = 0.10  # m: a swing longer than this is not a strike
 STRIKE_TILT = math.radians(25.0)  # striking faces must face down within this
-POUR_UPRIGHT = math.radians(15.0)
+POUR_UPRIGHT = math.radians(POUR_UPRIGHT_DEG)
 POUR_ANGLE = math.radians(125.0)
 POUR_LIP_FRACTION = 0.7  # lip within this fraction of the target's inner radius from its centre
 POUR_MIN_CLEARANCE, POUR_MAX_CLEARANCE = 0.0, 0.06  # source bottom above the target rim, m

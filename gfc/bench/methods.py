@@ -6,9 +6,11 @@
 - ``linear_chain``: a GSC-style forward chain. Our reading: the same skill models chained
   through the same shared node versions (the serialised skeleton: each step's effects are the
   next step's pre nodes, and the composition counts each shared node once), sampled jointly by
-  the same sampler, but *without any spatial factor*: no user constraints, no goal. That isolates
-  what GFC adds over chaining, the spatial factors. With no spatial cost there is nothing to rank
-  by, so candidates come in sampling order (which is random).
+  the same sampler, but *without the plan's spatial factors*: no user constraints, no goal. That
+  isolates what GFC adds over chaining, the spatial factors. The compiler's implied factors stay
+  (the physics of a two-handed grip, a pour's upright start: what any planner of these skills
+  must respect; until session 9 they were dropped too), and candidates are ranked by their cost;
+  a plan without any comes in sampling order (which is random).
 - ``independent``: every step's skill model sampled on its own, conditioned only on what is
   observed: each temporal factor gets private copies of its free node versions, so no node links
   two factors; observed (initial-scene) nodes stay exact conditioning inputs. A step whose pre
@@ -141,8 +143,11 @@ def decouple(plan: CompiledPlan) -> CompiledPlan:
 
 
 def chain_only(plan: CompiledPlan) -> CompiledPlan:
-    """The plan's temporal chain alone: every spatial factor (constraints and goal) dropped."""
-    return replace(plan, spatial=())
+    """The plan's temporal chain: the plan's constraints and goal dropped. Implied factors stay:
+    they are not the user's spatial knowledge but what any planner of these skills must respect
+    (two hands on one pot keep their relative pose; a pour starts upright, the precondition of a
+    skill that has no model to learn it; docs/adr/0005)."""
+    return replace(plan, spatial=tuple(f for f in plan.spatial if f.source == "implied"))
 
 
 def candidate_actions(result: PlanResult, n_steps: int) -> list[Actions]:

@@ -79,6 +79,11 @@ def test_linear_chain_drops_only_the_spatial_factors() -> None:
     assert compiled.spatial, "the task has a goal"
     chain = chain_only(compiled)
     assert chain.spatial == () and chain.temporal == compiled.temporal and chain.nodes == compiled.nodes
+    # Implied factors are physics and skill preconditions, not the user's: the chain keeps them.
+    pour = compile_plan(sample_task("pour_cup", 0).plan)
+    kept = chain_only(pour).spatial
+    assert [f.type for f in kept] == ["upright", "upright"]
+    assert {f.type for f in pour.spatial} - {f.type for f in kept} == {"aligned", "near"}
 
 
 def test_missing_models_are_named() -> None:

@@ -12,16 +12,19 @@ for every method, so methods are compared pairwise) are sampled, planned and exe
   at the first failed stage, so each failed trial is counted once, at its first failed step (for
   a group, the group's first step); trials whose steps all succeed but whose goal does not hold
   are ``goal_not_met``. Hence ``sum(by_type) + goal_not_met + succeeded == trials``.
-- **planning time**: the median wall clock of a method's call per trial, in this process.
+- **planning time**: the median CPU time of a method's call per trial, in this process (with one
+  torch thread, the wall clock it takes on an idle core).
 
-Planning runs in this process, one trial at a time (so its timing is not disturbed by our own
-simulations); execution fans out over the simulation pool (``gfc.pool``), a task at a time.
+Planning runs in this process, one trial at a time; execution fans out over the simulation pool
+(``gfc.pool``) in chunks, each chunk executing while the next is planned. Until session 9 the two
+took turns, and planning time was wall clock (undisturbed then): a core idled in every phase.
 """
 
 from __future__ import annotations
 
 import statistics
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -30,6 +33,7 @@ import numpy as np
 from gfc.bench.methods import (
     METHODS,
     ORACLES,
+    Method,
     MethodPlan,
     MissingModelsError,
     PlanSettings,
@@ -174,14 +178,17 @@ def run_benchmark(
     on_progress: Progress | None = None,
     log: TrialRecord | None = None,
     execute: bool = True,
+    pipeline: bool = True,
 ) -> BenchResult:
     """Plan and execute ``trials`` scenes per task and method. Progress units: one per trial
     planned and one per trial executed (``2 * len(tasks) * len(methods) * trials`` in all).
 
     With a ``log``, trials it already holds are taken from it instead of being redone, and each
     new trial is appended to it as soon as its chunk has been executed: an interrupted run loses
-    at most one chunk. With ``execute=False`` nothing is planned or run: the result holds the
-    log's trials only (a report of what has been measured so far)."""
+    at most two chunks (one executing, the next planned). With ``execute=False`` nothing is
+    planned or run: the result holds the log's trials only (a report of what has been measured
+    so far). With ``pipeline`` (the default) a chunk is planned while the one before it
+    executes; without, in turn. Either way the trials are the same."""
     unknown = [t for t in tasks if t not in ALL_TASKS]
     if unknown:
         raise KeyError(f"unknown tasks {unknown} (known: {', '.join(sorted(ALL_TASKS))})")
@@ -201,22 +208,56 @@ def run_benchmark(
         if done:
             report(f"{task}: {len(done)} trials from the log", 2 * len(done))
         todo = [k for k in keys if k not in done] if execute else []
-        for start in range(0, len(todo), chunk):
-            planned: list[tuple[str, int, MethodPlan]] = []
-            for _, method, trial_seed in todo[start : start + chunk]:
-                plan = planners[method](sample_task(task, trial_seed), settings)
-                planned.append((method, trial_seed, plan))
-                report(f"{task}: planning ({method})", 1)
-            work = [as_execution(task, s, p) for _, s, p in planned]
-            outcomes = pool.map(execute_trial, work)
-            for (method, s, plan), item, outcome in zip(planned, work, outcomes, strict=True):
-                trial = Trial(task, method, s, plan.seconds, outcome, item.candidates[0])
-                done[(task, method, s)] = trial
-                if log is not None:
-                    log.append(trial)
-            report(f"{task}: executing", len(work))
+        for trial in _plan_and_execute(task, todo, planners, settings, pool, chunk, pipeline, report):
+            done[(task, trial.method, trial.seed)] = trial
+            if log is not None:
+                log.append(trial)
         result.trials += [done[k] for k in keys if k in done]
     return result
+
+
+Planned = list[tuple[str, int, MethodPlan]]  # (method, seed, candidates) per trial of a chunk
+
+
+def _plan_and_execute(
+    task: str,
+    todo: Sequence[tuple[str, str, int]],
+    planners: dict[str, Method],
+    settings: PlanSettings,
+    pool: Pool,
+    chunk: int,
+    pipeline: bool,
+    report: Progress,
+) -> Iterator[Trial]:
+    """The trials of ``todo`` (task, method, seed), chunk by chunk, each yielded once executed.
+
+    With ``pipeline`` the pool executes one chunk while this process plans the next (a thread
+    waits on the pool), so the CPUs no longer idle in turn; planning time is CPU time
+    (methods.py), which the simulations running alongside do not inflate."""
+
+    def finished(planned: Planned, work: list[Execution], outcomes: list[ExecutionResult]) -> list[Trial]:
+        report(f"{task}: executing", len(work))
+        return [
+            Trial(task, method, seed, plan.seconds, outcome, item.candidates[0])
+            for (method, seed, plan), item, outcome in zip(planned, work, outcomes, strict=True)
+        ]
+
+    pending: tuple[Planned, list[Execution], Future[list[ExecutionResult]]] | None = None
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="bench-execute") as runner:
+        for start in range(0, len(todo), chunk):
+            planned: Planned = []
+            for _, method, seed in todo[start : start + chunk]:
+                planned.append((method, seed, planners[method](sample_task(task, seed), settings)))
+                report(f"{task}: planning ({method})", 1)
+            work = [as_execution(task, seed, plan) for _, seed, plan in planned]
+            if pending is not None:
+                yield from finished(pending[0], pending[1], pending[2].result())
+            pending = (planned, work, runner.submit(pool.map, execute_trial, work))
+            if not pipeline:
+                yield from finished(planned, work, pending[2].result())
+                pending = None
+        if pending is not None:
+            yield from finished(pending[0], pending[1], pending[2].result())
 
 
 def failure_table(task: str, trials: Sequence[Trial]) -> dict[str, Any]:

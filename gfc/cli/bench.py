@@ -170,6 +170,14 @@ def tasks(
             "per task and method; each row says how many it has)",
         ),
     ] = False,
+    pipeline: Annotated[
+        bool,
+        typer.Option(
+            "--pipeline/--no-pipeline",
+            help="plan the next chunk of trials while the simulator processes execute this one "
+            "(the same trials either way; --no-pipeline takes turns, as before session 9)",
+        ),
+    ] = True,
 ) -> None:
     """Success rates on the simulated tasks: top-1 and any-5 per task and method, failures by step
     and type, median planning time. Writes the markdown report (with the command), the JSON, a
@@ -227,6 +235,7 @@ def tasks(
                 on_progress=phase_logger(progress, bar, console),
                 log=trial_log,
                 execute=not report_only,
+                pipeline=pipeline,
             )
     except (MissingModelsError, KeyError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")

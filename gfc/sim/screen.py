@@ -32,7 +32,7 @@ import pybullet as pb
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest, Step
-from gfc.sim.collision import Carried, make_collision_fn
+from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
 from gfc.sim.control import cartesian_joint_path
 from gfc.sim.execute import stages
 from gfc.sim.ik import solve_ik
@@ -238,11 +238,17 @@ class Screen:
                 raise _Infeasible(i, f"{step.robot} cannot tip {tool} over {target} from any IK branch")
 
     def _can_follow(self, state: _State, robot: str, poses: list[FloatArray]) -> bool:
-        """Whether the arm can track ``poses`` (from the first) on one IK branch: from its screened
-        joints or, as the executor turns its arm to another branch when it must, from another IK
-        solution of the first pose."""
+        """Whether the arm can track ``poses`` (from the first) on one IK branch that is free of
+        collisions where it starts: its screened joints, or another IK solution of the first pose.
+
+        That is what execution needs, whichever solution its move chose: the executor tips from
+        its own joints when it can (collision-free, since it moved there) and otherwise turns the
+        arm to a collision-free solution that can follow. Until session 9 the start was not
+        collision-checked here, and 7 of 18 Pour Cup top-1 failures (20 scenes) were pours the
+        screen passed that the executor found no free branch for."""
         mirror = self.world.mirror
         start = poses[0]
+        check = self._collision_check(state, robot)
         seeds = [
             state.joints[robot],
             aimed_home(mirror.robots[robot].world_from_base, start),
@@ -252,7 +258,9 @@ class Screen:
             seeded = attempt < len(seeds)
             seed = seeds[attempt] if seeded else self.rng.uniform(LOWER_LIMITS, UPPER_LIMITS)
             q = state.joints[robot] if attempt == 0 else solve_ik(self.world, robot, start, seed, self.rng, 0)
-            if q is not None and cartesian_joint_path(self.world, robot, q, poses, self.rng) is not None:
+            if q is None or (attempt > 0 and check(q) is not None):
+                continue
+            if cartesian_joint_path(self.world, robot, q, poses, self.rng) is not None:
                 return True
         return False
 
@@ -287,24 +295,11 @@ class Screen:
         motion (pre-grasps, moves, above a placement); the straight lines that follow (approach,
         grasp, lift, descent) may touch, so those poses are screened for IK alone."""
         mirror = self.world.mirror
-        for name, pose in state.poses.items():
-            place_in_mirror(mirror, name, pose)
-        for name, q in state.joints.items():
-            if name != robot:
-                set_joints(mirror.client, mirror.robots[name], q, OPEN)
-        carried = [Carried(r, o, e) for r, (o, e) in state.held.items() if r == robot]
-        # Objects held by the other arm stay put at their (already placed) poses.
-        allowed: frozenset[tuple[str, str]] = frozenset()
-        if ignore_others:
-            mine = {robot, *(o for o, _ in ([state.held[robot]] if robot in state.held else []))}
-            theirs = {r for r in state.joints if r != robot}
-            theirs |= {state.held[r][0] for r in theirs if r in state.held}
-            allowed = frozenset((a, b) for a in mine for b in theirs)
         shoulder = mirror.robots[robot].world_from_base @ np.array([0.0, 0.0, SHOULDER_Z, 1.0])
         if float(np.linalg.norm(world_from_ee[:3, 3] - shoulder[:3])) > MAX_REACH:
             p = world_from_ee[:3, 3]
             raise _Infeasible(i, f"{robot}: out of reach for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
-        check = make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, allowed)
+        check = self._collision_check(state, robot, ignore_others)
         aimed = aimed_home(mirror.robots[robot].world_from_base, world_from_ee)
         # Seeded first: the current joints, home aimed at the target, home, and the latest
         # solutions found for this arm (candidates of one plan ask for similar poses, and side
@@ -327,6 +322,26 @@ class Screen:
         p = world_from_ee[:3, 3]
         why = f"every IK solution collides ({hit_any})" if hit_any else "no IK solution"
         raise _Infeasible(i, f"{robot}: {why} for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
+
+    def _collision_check(self, state: _State, robot: str, ignore_others: bool = False) -> CollisionFn:
+        """A collision test for ``robot``'s joints in the screened state: objects where the walk
+        put them, the other arms at their screened joints, what ``robot`` holds carried along;
+        with ``ignore_others``, contacts with the other arms and what they hold are allowed."""
+        mirror = self.world.mirror
+        for name, pose in state.poses.items():
+            place_in_mirror(mirror, name, pose)
+        for name, q in state.joints.items():
+            if name != robot:
+                set_joints(mirror.client, mirror.robots[name], q, OPEN)
+        carried = [Carried(r, o, e) for r, (o, e) in state.held.items() if r == robot]
+        # Objects held by the other arm stay put at their (already placed) poses.
+        allowed: frozenset[tuple[str, str]] = frozenset()
+        if ignore_others:
+            mine = {robot, *(o for o, _ in ([state.held[robot]] if robot in state.held else []))}
+            theirs = {r for r in state.joints if r != robot}
+            theirs |= {state.held[r][0] for r in theirs if r in state.held}
+            allowed = frozenset((a, b) for a in mine for b in theirs)
+        return make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, allowed)
 
     def _fingers_meet(self, state: _State, i: int, robot: str, obj: str) -> None:
         """Close the fingers kinematically at the grasp (the arm where ``_reach`` left it): each

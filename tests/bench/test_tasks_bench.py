@@ -166,6 +166,34 @@ def test_reference_oracle_succeeds_and_renders_a_success(tmp_path: Path) -> None
 
 
 @pytest.mark.slow
+def test_planning_alongside_execution_gives_the_same_trials() -> None:
+    """Three trials in chunks of two: pipelined (chunk 2 planned while chunk 1 executes) and in
+    turn, the same candidates and the same outcomes, in the same order; the progress adds up."""
+    from gfc.pool import LocalPool
+
+    runs = []
+    units: list[int] = []
+    for pipeline in (True, False):
+        units.clear()
+        with LocalPool(2, keep_alive=True) as pool:
+            result = run_benchmark(
+                [TASK],
+                ["random"],
+                3,
+                None,
+                pool,
+                PlanSettings(candidates=5),
+                chunk=2,
+                on_progress=lambda _msg, n: units.append(n),
+                pipeline=pipeline,
+            )
+        assert sum(units) == 2 * 3
+        runs.append([(t.seed, t.top1_actions, t.result) for t in result.trials])
+    assert runs[0] == runs[1]
+    assert [seed for seed, _, _ in runs[0]] == [0, 1, 2]
+
+
+@pytest.mark.slow
 def test_ci_sized_run_writes_report_json_plot_and_frames(tmp_path: Path) -> None:
     out, data, plot = tmp_path / "results.md", tmp_path / "results.json", tmp_path / "plot.png"
     args = ["bench", "tasks", "--tasks", TASK, "--trials", "2", "--candidates", "5", "--steps", "4"]

@@ -38,7 +38,7 @@ def print_summary(console: Console, compiled: CompiledPlan) -> None:
         )
     console.print(table)
     if summary["spatial_factors"]:
-        spatial = Table(title="spatial factors (constraints and goal)")
+        spatial = Table(title="spatial factors (constraints, goal, and those the compiler implies)")
         for col in ("source", "type", "nodes"):
             spatial.add_column(col)
         for s in summary["spatial_factors"]:

@@ -14,7 +14,7 @@ import collections
 import re
 
 from gfc.bench.methods import PlanSettings, make_method
-from gfc.sim.screen import Screen
+from gfc.sim.screen import screen_order
 from gfc.tasks import sample_task
 from skill_store import SkillStore, StoreLibrary
 
@@ -36,11 +36,11 @@ def main() -> None:
     for seed in range(*args.seeds):
         instance = sample_task(args.task, seed)
         candidates = method(instance, settings).candidates
-        with Screen(instance.plan, seed) as screen:
-            verdicts = [screen.check(c) for c in candidates]
-        passed.append(sum(v.feasible for v in verdicts))
+        # keep = all: every candidate gets a verdict (the benchmark stops at SCREEN_KEEP passes).
+        _, verdicts = screen_order(instance.plan, candidates, keep=len(candidates) + 1, seed=seed)
+        passed.append(sum(v is not None and v.feasible for v in verdicts))
         for v in verdicts:
-            if not v.feasible:
+            if v is not None and not v.feasible:
                 reasons[(v.step, re.sub(r"[-0-9.]+", "#", v.reason))] += 1
         print(f"scene {seed}: {passed[-1]} of {len(candidates)} pass", flush=True)
     print(f"passing per scene {passed}, mean {sum(passed) / len(passed):.2f}")

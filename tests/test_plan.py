@@ -408,3 +408,27 @@ def test_a_pour_asks_both_containers_upright_before_it() -> None:
     no_pour = sample_task("pour_cup", 0).plan.model_dump(by_alias=True)
     no_pour["skeleton"] = no_pour["skeleton"][:-1]
     assert not [f for f in compile_plan(no_pour).spatial if f.type == "upright"]
+
+
+def test_a_pour_is_a_factor_over_its_pre_nodes_and_a_strike_stays_terminal() -> None:
+    """A pour's learned pre-state model (docs/adr/0006) enters as a temporal factor over exactly
+    the nodes the pour reads (the pourer, the mug and the cup after the meeting), with no action
+    and no effect; a strike has no model and is listed as terminal."""
+    from gfc.tasks import sample_task
+
+    graph = compile_plan(sample_task("pour_cup", 0).plan)
+    pour = next(f for f in graph.temporal if f.skill == "pour")
+    assert pour.model == "pour.mug.cup" and pour.step == 4 and pour.robot == "left"
+    assert [(t.role, t.phase) for t in pour.tokens] == [
+        ("robot", "pre"),
+        ("object", "pre"),
+        ("target", "pre"),
+    ]
+    meet = [f for f in graph.temporal if f.skill == "move"]
+    written = {graph.nodes[t.node].entity: t.node for f in meet for t in f.tokens if t.phase == "effect"}
+    read = {graph.nodes[t.node].entity: t.node for t in pour.tokens if t.node is not None}
+    assert read == {e: written[e] for e in ("left", "mug", "cup")}
+    assert not graph.terminal
+    nail = compile_plan(sample_task("hammer_nail", 0).plan)
+    assert [skill for _, skill in nail.terminal] == ["strike"]
+    assert all(f.skill != "strike" for f in nail.temporal)

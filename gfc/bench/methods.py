@@ -147,8 +147,9 @@ def decouple(plan: CompiledPlan) -> CompiledPlan:
 def chain_only(plan: CompiledPlan) -> CompiledPlan:
     """The plan's temporal chain: the plan's constraints and goal dropped. Implied factors stay:
     they are not the user's spatial knowledge but what any planner of these skills must respect
-    (two hands on one pot keep their relative pose; a pour starts upright, the precondition of a
-    skill that has no model to learn it; docs/adr/0005)."""
+    (two hands on one pot keep their relative pose; a pour starts upright, a precondition no plan
+    should have to state; docs/adr/0005). The pour's learned pre-state model is a temporal factor
+    and stays too: chaining uses every skill's model."""
     return replace(plan, spatial=tuple(f for f in plan.spatial if f.source == "implied"))
 
 

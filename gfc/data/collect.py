@@ -25,6 +25,7 @@ from gfc.plan.schema import PlanRequest, Step
 from gfc.skills.signatures import skill_spec
 
 SETUP_FAILED = "setup"
+PRE_STATE_DRAWS = 16  # pre-state samples drawn at most for a check until one suits its scene
 Source = Literal["prior", "uniform", "model"]
 
 
@@ -139,6 +140,8 @@ def run_attempt(attempt: Attempt) -> dict[str, Any]:
 
     rng = np.random.default_rng(attempt.seed)
     scenario = scenario_for(attempt.model)(rng)
+    if scenario.kinematic:
+        return run_kinematic(scenario, attempt.seed, _sampled_setup(attempt, scenario, rng))
     plan, k = scenario.plan, scenario.n_setup
     worlds = _world_cache()
     world = worlds.acquire(plan.scene, scenario.contents)
@@ -175,6 +178,60 @@ def run_attempt(attempt: Attempt) -> dict[str, Any]:
         transition_row(plan, step, a, before, after) for step, a in zip(target.skeleton, actions, strict=True)
     ]
     return {"status": "success", "rows": [[float(v) for v in row] for row in rows]}
+
+
+def run_kinematic(
+    scenario: Scenario, seed: int, setup_actions: list[FloatArray | None] | None = None
+) -> dict[str, Any]:
+    """A terminal skill's pre-state labelled by the kinematic screen (``Scenario.kinematic``):
+    the set-up walked on the planning mirror (nothing moves by physics), then the target stage's
+    precondition; on a pass, one row of pre nodes per target step from where the walk left the
+    objects and hands. Fails as the screen does (its reason), counted against the skill.
+    ``setup_actions``: instead of the scenario's own (a model's pre-state realised as set-up)."""
+    from gfc.geometry import matrix_to_pose7
+    from gfc.sim.screen import Screen
+
+    plan, k = scenario.plan, scenario.n_setup
+    target = stage_plan(plan, slice(k, None))
+    if any(skill_spec(s.skill).action_dim for s in target.skeleton):
+        raise ValueError("kinematic labels are for action-less target steps (strike, pour)")
+    setup = scenario.setup_actions if setup_actions is None else setup_actions
+    with Screen(plan, seed) as screen:
+        walk = screen.walk([*setup, *([None] * scenario.n_target)])
+    if not walk.verdict.feasible:
+        return {
+            "status": "failure",
+            "failure_type": "kinematic",
+            "reason": walk.verdict.reason,
+            "actions": [],
+        }
+    poses = {name: [float(v) for v in matrix_to_pose7(m)] for name, m in walk.poses.items()}
+    state = world_state(poses, walk.openings)
+    rows = [pre_nodes(plan, step, state) for step in target.skeleton]
+    return {"status": "success", "rows": [[float(v) for v in row] for row in rows]}
+
+
+def _sampled_setup(
+    attempt: Attempt, scenario: Scenario, rng: np.random.Generator
+) -> list[FloatArray | None] | None:
+    """For ``source="model"`` on a kinematic scenario: the model's pre-state (sampled with
+    nothing given) as the set-up that would reach it; else None (the scenario's own set-up,
+    which for "uniform" is its random meeting: a pre-state model has no action to randomise)."""
+    if attempt.source != "model":
+        return None
+    from gfc.skills.check import load_model, realise_pre_state, sample_pre_state
+
+    assert attempt.store is not None and attempt.ref is not None, "source='model' needs store and ref"
+    # Nothing of a pre-state is observed, and the data holds both arms as pourer (the target on
+    # the pourer's inward side: -y for the left arm): draw until the sample is for this pourer.
+    pourer = scenario.plan.skeleton[scenario.n_setup].robot
+    inward = -1.0 if next(r for r in scenario.plan.scene.robots if r.name == pourer).base[1] > 0 else 1.0
+    model = load_model(attempt.store, attempt.ref)
+    for _ in range(PRE_STATE_DRAWS):
+        row = sample_pre_state(model, int(rng.integers(2**31)))
+        if row[20] * inward > 0:  # the target's y in the pourer's base frame
+            break
+    return realise_pre_state(scenario, row)
 
 
 @dataclass(frozen=True)

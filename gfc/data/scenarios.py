@@ -50,6 +50,11 @@ class Scenario:
     propose: ActionDraw  # heuristic actions (with their own noise) for the target steps
     uniform: ActionDraw  # uniformly random actions for the target steps
     contents: dict[str, int] | None = None
+    # Labelled by the kinematic screen instead of by execution (gfc.data.collect): the target
+    # stage's pre-state is kept when the set-up's poses are reachable without collision and the
+    # target stage's precondition holds there. For a terminal skill whose executions are too slow
+    # and rare to collect (a pour: ~13 s each, 1 in 12 succeeding from random meetings).
+    kinematic: bool = False
 
     @property
     def n_setup(self) -> int:
@@ -561,6 +566,73 @@ def stroke(skill: str) -> ScenarioSampler:
     return sample
 
 
+# ---------------------------------------------------------------------------------- pour
+POUR_RIM_DISTANCE = (0.015, 0.05)  # m between the rims' centres, in xy (the mug's inner radius: 2.7 cm)
+POUR_CLEARANCE = (0.005, 0.06)  # m from the target's rim up to the source's bottom
+POUR_MEET_BOX = ([0.33, -0.16, 0.08], [0.6, 0.16, 0.32])  # world (x, y, z above the table) of the target
+
+
+def pour(source: str, target: str) -> ScenarioSampler:
+    """One arm picks ``source`` (a container holding beads), the other picks ``target``; both move
+    at once (one group) to a meeting somewhere between the arms, the source's rim roughly over the
+    target's at a random offset, height and heading; then the source's arm pours. The model learns
+    the pour's pre-state: the meetings the arms can reach together without collision, from which
+    the pour's precondition holds and the arm can follow the tipping. Labelled kinematically
+    (``Scenario.kinematic``): spills and in-hand slips are not in the data. A pour has no
+    action: its rows are the pre nodes alone (the pourer's hand, the source, the target, in the
+    pourer's base frame)."""
+    source_kind, target_kind = OBJECT_KINDS[source], OBJECT_KINDS[target]
+    assert source_kind.inner_half_extents is not None and target_kind.inner_half_extents is not None
+    target_rim_z = target_kind.frames["rim"][2]
+
+    def sample(rng: Rng) -> Scenario:
+        pourer = str(rng.choice(["left", "right"]))
+        holder = OTHER[pourer]
+        towards_pourer = 1.0 if BASES[pourer][1] > 0 else -1.0
+        sx, sy = in_front(rng, pourer, (0.38, 0.52), 0.1)
+        tx, ty = in_front(rng, holder, (0.38, 0.52), 0.1)
+        # Handles (a mug's -x) away from the robots, give or take; the target has none.
+        source_yaw = math.pi + rng.uniform(-1.0, 1.0)
+        target_yaw = rng.uniform(-math.pi, math.pi)
+        objects: list[dict[str, object]] = [
+            {"name": "src", "kind": source, "pose": pose7(sx, sy, TABLE_Z, source_yaw)},
+            {"name": "dst", "kind": target, "pose": pose7(tx, ty, TABLE_Z, target_yaw)},
+        ]
+        skeleton: list[dict[str, object]] = [
+            {"skill": "pick", "robot": pourer, "object": "src"},
+            {"skill": "pick", "robot": holder, "object": "dst"},
+            {"skill": "move", "robot": pourer, "object": "src", "group": "meet"},
+            {"skill": "move", "robot": holder, "object": "dst", "group": "meet"},
+            {"skill": "pour", "robot": pourer, "object": "src", "target": "dst"},
+        ]
+        low, high = POUR_MEET_BOX
+        meet = rng.uniform(low, high) + np.array([0.0, 0.0, TABLE_Z])  # the target's origin, world
+        # The source's rim centre beside the target's, on the pourer's side give or take 40 deg.
+        heading = towards_pourer * math.pi / 2 + rng.uniform(-0.7, 0.7)
+        distance = rng.uniform(*POUR_RIM_DISTANCE)
+        rim = meet + np.array([0.0, 0.0, target_rim_z])
+        source_at = rim + np.array(
+            [distance * math.cos(heading), distance * math.sin(heading), rng.uniform(*POUR_CLEARANCE)]
+        )
+        # Upright, turned about the vertical a little from how each lay (the hands turn with them).
+        target_pose = pose9(meet - BASES[holder], rot_z(target_yaw + rng.uniform(-0.6, 0.6)))
+        source_pose = pose9(source_at - BASES[pourer], rot_z(source_yaw + rng.uniform(-0.6, 0.6)))
+        setup: list[FloatArray | None] = [
+            grasp_proposal(source, rng, facing_from(pourer, sx, sy, source_yaw)),
+            grasp_proposal(target, rng, facing_from(holder, tx, ty, target_yaw)),
+            source_pose,
+            target_pose,
+        ]
+        nothing: ActionDraw = lambda _r, _s: [np.zeros(0)]  # noqa: E731
+        plan = make_plan(objects, skeleton)
+        return Scenario(plan, setup, 1, nothing, nothing, contents={"src": POUR_BEADS}, kinematic=True)
+
+    return sample
+
+
+POUR_BEADS = 6  # contents of the source, as in the Pour Cup task
+
+
 # ---------------------------------------------------------------------------------- registry
 SCENARIOS: dict[str, ScenarioSampler] = {
     **{f"pick.{k}": pick(k) for k in ("cube", "block", "hammer", "hook", "lid", "nail", "mug", "cup")},
@@ -577,6 +649,7 @@ SCENARIOS: dict[str, ScenarioSampler] = {
     "regrasp.hammer": regrasp_hammer,
     "push.hook.block": stroke("push"),
     "pull.hook.block": stroke("pull"),
+    "pour.mug.cup": pour("mug", "cup"),
 }
 
 

@@ -385,13 +385,16 @@ class _Compiler:
         for i, step, spec in valid:
             with_object = step.object is not None
             if spec.action_dim == 0 and not spec.writes:
-                # A terminal skill (strike, pour) has nothing to sample and changes no node: its
-                # precondition is a geometric test, which a plan states as a constraint (the hammer
-                # head aligned over the nail) rather than a learned factor.
-                self.apply_holding(step, spec)
-                self.terminal.append((i, spec.name))
+                # A terminal skill (strike, pour) has nothing to sample and changes no node. A
+                # strike's precondition is a geometric test, which a plan states as a constraint
+                # (the hammer head aligned over the nail); a pour's also has a learned model of its
+                # pre-state (where the arms can meet and tip; docs/adr/0006), a factor over its
+                # pre nodes alone.
                 self.add_preconditions(step)
-                continue
+                if not spec.learned_precondition:
+                    self.apply_holding(step, spec)
+                    self.terminal.append((i, spec.name))
+                    continue
             tokens: list[FactorToken] = []
             action_id: int | None = None
             for token in spec.tokens(with_object=with_object):

@@ -37,7 +37,15 @@ from gfc.sim.control import cartesian_joint_path
 from gfc.sim.execute import stages
 from gfc.sim.ik import solve_ik
 from gfc.sim.outcome import SkillFailure
-from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX, HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, set_joints
+from gfc.sim.panda import (
+    FINGER_JOINTS,
+    FINGER_MAX,
+    HOME_JOINTS,
+    LOWER_LIMITS,
+    UPPER_LIMITS,
+    ee_matrix,
+    set_joints,
+)
 from gfc.sim.skills.grasping import pre_grasp
 from gfc.sim.skills.motions import APPROACH, LIFT, aimed_home, backed_off, translated
 from gfc.sim.skills.moving import hand_for
@@ -57,6 +65,7 @@ SHOULDER_Z = 0.333
 MAX_REACH = 0.98
 REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
 OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
+OPENING_STEPS = 80  # finger positions tried when reading the opening on a held object
 
 
 @dataclass(frozen=True)
@@ -64,6 +73,15 @@ class Verdict:
     feasible: bool
     step: int | None = None  # the first step that failed the screen
     reason: str = ""
+
+
+@dataclass(frozen=True)
+class Walk:
+    """A screened candidate and the kinematic state it ends in (empty unless feasible)."""
+
+    verdict: Verdict
+    poses: dict[str, FloatArray]  # entity -> world 4x4: objects, and each robot's hand
+    openings: dict[str, float]  # robot -> finger opening (m) closed on what it holds
 
 
 class _Infeasible(Exception):
@@ -104,6 +122,10 @@ class Screen:
 
     def check(self, actions: Sequence[FloatArray | None]) -> Verdict:
         """Whether every screened step of the candidate is kinematically possible."""
+        return self.walk(actions).verdict
+
+    def walk(self, actions: Sequence[FloatArray | None]) -> Walk:
+        """``check``, also returning where the walk left everything (for kinematic data)."""
         if len(actions) != len(self.plan.skeleton):
             raise ValueError(f"{len(actions)} actions for {len(self.plan.skeleton)} skeleton steps")
         home = np.asarray(HOME_JOINTS, dtype=np.float64)
@@ -121,11 +143,19 @@ class Screen:
                     self._terminal(state, stage[0], steps[0])
                     continue
                 if any(v is None or not np.all(np.isfinite(v)) for v in values):
-                    return Verdict(False, stage[0], "missing or non-finite action")
+                    return Walk(Verdict(False, stage[0], "missing or non-finite action"), {}, {})
                 self._stage(state, stage, steps, [np.asarray(v, dtype=np.float64) for v in values])
         except _Infeasible as exc:
-            return Verdict(False, exc.step, exc.reason)
-        return Verdict(True)
+            return Walk(Verdict(False, exc.step, exc.reason), {}, {})
+        poses = {k: v.copy() for k, v in state.poses.items()}
+        openings: dict[str, float] = {}
+        for robot in self.world.mirror.robots:
+            # A holding hand where its grasp puts it (its IK solution is within millimetres of
+            # that): the row then carries the grasp exactly; a free hand where its joints put it.
+            held = state.held.get(robot)
+            poses[robot] = self._hand_of(state, robot) if held else self._forward(robot, state.joints[robot])
+            openings[robot] = self._closed_opening(state, robot, held[0]) if held else 2 * OPEN
+        return Walk(Verdict(True), poses, openings)
 
     # -- one stage ----------------------------------------------------------------------------
 
@@ -242,10 +272,11 @@ class Screen:
         collisions where it starts: its screened joints, or another IK solution of the first pose.
 
         That is what execution needs, whichever solution its move chose: the executor tips from
-        its own joints when it can (collision-free, since it moved there) and otherwise turns the
-        arm to a collision-free solution that can follow. Until session 9 the start was not
-        collision-checked here, and 7 of 18 Pour Cup top-1 failures (20 scenes) were pours the
-        screen passed that the executor found no free branch for."""
+        arm to a collision-free solution that can follow. The start was not collision-checked here
+        until session 9 (7 of 18 Pour Cup top-1 failures on 20 scenes were then pours the screen
+        passed and the executor found no free branch for); the check did not remove that failure
+        (19 of 86 top-1 failures at 100 trials): IK from 8 random starts finds a branch in one
+        screening and not in the next."""
         mirror = self.world.mirror
         start = poses[0]
         check = self._collision_check(state, robot)
@@ -366,6 +397,27 @@ class Screen:
             if not missing:
                 return
         raise _Infeasible(i, f"{robot}: closing at the grasp, the fingers would miss {obj}")
+
+    def _forward(self, robot: str, q: FloatArray) -> FloatArray:
+        mirror = self.world.mirror
+        set_joints(mirror.client, mirror.robots[robot], q, OPEN)
+        return ee_matrix(mirror.client, mirror.robots[robot])
+
+    def _closed_opening(self, state: _State, robot: str, obj: str) -> float:
+        """The finger opening at which both fingers touch ``obj`` (held at its walked pose), in
+        finer steps than the grasp test: what a real grasp of it would read."""
+        mirror = self.world.mirror
+        panda, body = mirror.robots[robot], mirror.objects[obj].body
+        place_in_mirror(mirror, obj, state.poses[obj])
+        for k in range(OPENING_STEPS, -1, -1):
+            position = FINGER_MAX * k / OPENING_STEPS
+            set_joints(mirror.client, panda, state.joints[robot], position)
+            if all(
+                pb.getClosestPoints(panda.body, body, 0.0, linkIndexA=f, physicsClientId=mirror.client)
+                for f in FINGER_JOINTS
+            ):
+                return 2 * position
+        return 0.0
 
     def _check_together(self, state: _State, i: int, robots: list[str]) -> None:
         mirror = self.world.mirror

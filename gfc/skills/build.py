@@ -29,7 +29,8 @@ from gfc.pool import Pool
 from gfc.skills.training import plot_losses, train_skills
 from skill_store.library import IncompatibleModelError, check_action_frame
 
-# The skill models the benchmark tasks use (strike and pour are terminal: no learned model).
+# The skill models the benchmark tasks use (strike is terminal with no learned model; pour's
+# model is of its pre-state, labelled kinematically: docs/adr/0006).
 DEFAULT_MODELS: tuple[str, ...] = (
     "pick.cube",
     "pick.lid",
@@ -49,6 +50,7 @@ DEFAULT_MODELS: tuple[str, ...] = (
     "place.lid.box",
     "place.hammer.box",
     "regrasp.hammer",
+    "pour.mug.cup",
     # The single-arm tasks (hook reach, rearrangement push, packing).
     "pick.block",
     "pick.hook",
@@ -121,7 +123,8 @@ BUDGETS: dict[str, BuildBudget] = {
     "full": BuildBudget(
         attempts=150,
         train_steps=1000,
-        extra_attempts={m: 400 for m in PRECISE_MODELS},
+        # pour.mug.cup: about one random meeting in five passes its kinematic label, at ~0.8 s.
+        extra_attempts={**{m: 400 for m in PRECISE_MODELS}, "pour.mug.cup": 2400},
         recipes=dict.fromkeys(SHARP_MODELS, SHARP),
     ),
     "tiny": BuildBudget(attempts=4, train_steps=20, batch_size=16, shard_size=4),

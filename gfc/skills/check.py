@@ -30,7 +30,7 @@ from gfc.data.collect import (
 from gfc.data.scenarios import Scenario, State
 from gfc.diffusion.denoiser import StackedDenoiser
 from gfc.diffusion.training import sample_model
-from gfc.geometry import FloatArray, pose7_to_pose9
+from gfc.geometry import FloatArray, invert, matrix_to_pose9, pose7_to_pose9, pose9_to_matrix
 from gfc.plan.compiler import compile_plan
 from gfc.plan.graph import CompiledPlan
 from gfc.plan.schema import Options
@@ -160,6 +160,34 @@ def compose_stage(
     options = Options(candidates=1, top_k=1, steps=SAMPLING_STEPS, seed=seed)
     result = plan_candidates(stage, InMemoryLibrary({name: model}), options)
     return [np.asarray(s["action"], dtype=np.float64) for s in result.candidates[0]["steps"]]
+
+
+def sample_pre_state(model: StackedDenoiser, seed: int) -> FloatArray:
+    """One pre-state row from a pre-state model (a pour's), nothing given: (total_dim,)."""
+    generator = torch.Generator().manual_seed(seed)
+    return sample_model(model, 1, SAMPLING_STEPS, generator=generator)[0].double().numpy()
+
+
+def realise_pre_state(scenario: Scenario, row: FloatArray) -> list[FloatArray | None]:
+    """The set-up actions of a pour scenario (pick source, pick target, move both) that reach the
+    pre-state ``row`` (the pourer's hand, the source, the target, in the pourer's base frame):
+    the pourer's grasp is the hand's pose in the source's frame, the moves put each container
+    where the row has it; the target's grasp stays the scenario's own (the row does not say it)."""
+    plan = scenario.plan
+    pourer = plan.skeleton[scenario.n_setup].robot
+    a, b = robot_frame_map(plan, pourer)
+    hand, source, target = row[:9], row[10:19], row[19:28]
+    target_world = a.T @ (target - b)  # A is orthogonal: back to the world frame
+    setup = list(scenario.setup_actions)
+    for i, step in enumerate(plan.skeleton[: scenario.n_setup]):
+        if step.skill == "pick" and step.robot == pourer:
+            setup[i] = matrix_to_pose9(invert(pose9_to_matrix(source)) @ pose9_to_matrix(hand))
+        elif step.skill == "move" and step.robot == pourer:
+            setup[i] = matrix_to_pose9(pose9_to_matrix(source))  # orthonormal rotation columns
+        elif step.skill == "move":
+            ha, hb = robot_frame_map(plan, step.robot)
+            setup[i] = matrix_to_pose9(pose9_to_matrix(ha @ target_world + hb))
+    return setup
 
 
 def model_source(store: str, ref: str) -> ActionSource:

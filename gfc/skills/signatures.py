@@ -67,6 +67,9 @@ class SkillSpec:
     # The action is the effect node of the first of these roles the step has (move: the held
     # object, or the hand when it holds nothing).
     action_is_effect_of: tuple[Role, ...] = ()
+    # A terminal skill (no action, no effects) whose pre-state has a learned model: a factor
+    # over its pre nodes alone (where the skill can start), e.g. the meetings a pour works from.
+    learned_precondition: bool = False
 
     @property
     def action_dim(self) -> int:
@@ -168,13 +171,14 @@ SKILLS: dict[str, SkillSpec] = _spec(
     ),
     SkillSpec(
         "pour",
-        "pour the held container into the target (terminal: its precondition only)",
+        "pour the held container into the target (terminal: a learned model of its pre-state)",
         reads=("robot", "object", "target"),
         writes=(),
         action_names=(),
         action_frame="none",
         requires_held=True,
         target_required=True,
+        learned_precondition=True,
     ),
 )
 

@@ -76,5 +76,7 @@ def test_the_full_budget_gives_the_precise_models_more_data_and_sharper_training
     for model in DEFAULT_MODELS:
         precise = model in PRECISE_MODELS
         assert full.recipe_for(model) == (SHARP if model in SHARP_MODELS else Recipe(full.train_steps))
-        assert full.extra_attempts.get(model, full.attempts) == (400 if precise else full.attempts)
+        # pour.mug.cup: kinematic labels pass about 1 random meeting in 5 (docs/adr/0006)
+        expected = 2400 if model == "pour.mug.cup" else 400 if precise else full.attempts
+        assert full.extra_attempts.get(model, full.attempts) == expected
     assert SHARP.p_mean < Recipe(1).p_mean and SHARP.dropout == 0.0

@@ -111,6 +111,14 @@ def upright(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tens
     return _pose_of(obj)[..., :2, 2]
 
 
+def reach(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """The hand is no farther than ``reach`` from the arm's ``shoulder`` (world point). (B, 1)"""
+    (hand,) = nodes
+    diff = hand[..., :3] - torch.tensor(params["shoulder"], dtype=hand.dtype)
+    distance = (diff * diff).sum(dim=-1, keepdim=True).clamp_min(1e-12).sqrt()
+    return torch.relu(distance - params["reach"])
+
+
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
     a, b = nodes
     diff = a[..., :3] - b[..., :3]
@@ -140,6 +148,7 @@ RESIDUALS: dict[str, Residual] = {
     "relative_pose": relative_pose,
     "yaw": yaw,
     "upright": upright,
+    "reach": reach,
     "near": near,
     "far": far,
 }

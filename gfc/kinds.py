@@ -26,6 +26,14 @@ HOME_EE_POSE_IN_BASE = (0.307, 0.0, 0.485, 1.0, 0.0, 0.0, 0.0)
 
 IDENTITY_FRAME = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
+# The Panda's shoulder (joint 2) stands this high over its base. Its hand is never farther than
+# ~0.95 m from there (the sum of the link offsets; the most of 20,000 random configurations), and
+# with a useful hand orientation rarely beyond PANDA_REACH: every hand pose of the tasks'
+# reference solutions is within it (tests/test_plan.py), and the poses that the simulator's IK
+# could not reach in the benchmark's hand-overs were at 0.84-1.2 m.
+PANDA_SHOULDER_Z = 0.333
+PANDA_REACH = 0.85
+
 
 @dataclass(frozen=True)
 class ObjectKind:

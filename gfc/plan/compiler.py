@@ -18,7 +18,14 @@ import numpy as np
 from pydantic import ValidationError
 
 from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_quat
-from gfc.kinds import HOME_EE_POSE_IN_BASE, OBJECT_KINDS, OBJECT_STATE_DIM, ROBOT_STATE_DIM
+from gfc.kinds import (
+    HOME_EE_POSE_IN_BASE,
+    OBJECT_KINDS,
+    OBJECT_STATE_DIM,
+    PANDA_REACH,
+    PANDA_SHOULDER_Z,
+    ROBOT_STATE_DIM,
+)
 from gfc.plan.graph import (
     ActionVariable,
     CompiledPlan,
@@ -98,6 +105,7 @@ def parse_plan(data: Any) -> PlanRequest:
 # A yaw goal's energy has sigma = tolerance / BOUND_SIGMAS (see the Yaw branch of the compiler).
 BOUND_SIGMAS = 3.0
 POUR_UPRIGHT_SIN = math.sin(math.radians(POUR_UPRIGHT_DEG))  # the upright factor's residual bound
+REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energy is 1/2
 
 _UNION_TAGS = {
     "inside",
@@ -381,6 +389,9 @@ class _Compiler:
                 if entity is not None and (role != "object" or with_object):
                     writers.setdefault(entity, []).append(i)
         after = {entity: self.add_node(entity, None, tuple(ws)) for entity, ws in writers.items()}
+        for entity, node in after.items():
+            if entity in self.robots:
+                self.add_reach(entity, node)
 
         for i, step, spec in valid:
             with_object = step.object is not None
@@ -471,6 +482,17 @@ class _Compiler:
                 continue
             params = {"weight": 1.0, "tolerance": POUR_UPRIGHT_SIN / BOUND_SIGMAS}
             self.spatial.append(SpatialFactor("upright", "implied", len(self.spatial), (node,), params))
+
+    def add_reach(self, robot: str, node: int) -> None:
+        """Every hand pose a plan samples must be within the arm's reach of its shoulder. The
+        skill models see one arm each, in its base frame; where two of them share a node (a
+        hand-over: the giver's move and the receiver's regrasp, whose data had givers on both
+        sides) the composition could put the giver's hand over the other arm's base, 1 m and more
+        from its shoulder (half of Hammer Place's hand-over samples before this factor)."""
+        shoulder = self.world_from_base(robot) @ np.array([0.0, 0.0, PANDA_SHOULDER_Z, 1.0])
+        params = {"weight": 1.0, "tolerance": REACH_TOLERANCE, "shoulder": [float(v) for v in shoulder[:3]]}
+        params["reach"] = PANDA_REACH
+        self.spatial.append(SpatialFactor("reach", "implied", len(self.spatial), (node,), params))
 
     def add_closed_chain(
         self, valid: list[tuple[int, Step, SkillSpec]], before: dict[str, int], after: dict[str, int]

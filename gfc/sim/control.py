@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pybullet as pb
@@ -118,6 +119,22 @@ def cartesian_joint_path(
             return None
         path.append(q)
     return path
+
+
+def tracks_lines(
+    world: World, robot: str, q: FloatArray, poses: Sequence[FloatArray], rng: np.random.Generator
+) -> bool:
+    """Whether straight end-effector lines through ``poses`` (the first is where ``q`` puts the
+    hand) can be tracked from joint configuration ``q`` on one IK branch."""
+    joints_now = q
+    for a, b in itertools.pairwise(poses):
+        path = cartesian_joint_path(
+            world, robot, joints_now, interpolate_poses(a, b, waypoint_count(a, b)), rng
+        )
+        if path is None:
+            return False
+        joints_now = path[-1]
+    return True
 
 
 def fingers_touching(world: World, robot: str, object_body: int) -> bool:

@@ -33,7 +33,7 @@ from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.plan.schema import PlanRequest, Step
 from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
-from gfc.sim.control import cartesian_joint_path
+from gfc.sim.control import cartesian_joint_path, tracks_lines
 from gfc.sim.execute import stages
 from gfc.sim.ik import solve_ik
 from gfc.sim.outcome import SkillFailure
@@ -213,7 +213,9 @@ class Screen:
         approach starts from (collision-checked), the grasp (IK only: the approach may touch),
         the fingers closing on it. Returns the grasp's world pose."""
         grasp = state.poses[obj] @ pose9_to_matrix(action)
-        self._reach(state, i, robot, approach_from(grasp), f"the pre-grasp of {obj}")
+        # As the executor (``reach`` with ``follow``): the pre-grasp solution must be one from
+        # which the straight approach to the grasp can be tracked.
+        self._reach(state, i, robot, approach_from(grasp), f"the pre-grasp of {obj}", follow=[grasp])
         self._reach(state, i, robot, grasp, f"the grasp of {obj}", collide=False)
         self._fingers_meet(state, i, robot, obj)
         return grasp
@@ -226,7 +228,8 @@ class Screen:
         goal = state.poses[target] @ pose9_to_matrix(action)
         hand = goal @ invert(state.held[step.robot][1])
         state.poses[obj] = translated(goal, [0.0, 0.0, PLACE_APPROACH])
-        self._reach(state, i, step.robot, translated(hand, [0.0, 0.0, PLACE_APPROACH]), f"above the {target}")
+        above = translated(hand, [0.0, 0.0, PLACE_APPROACH])
+        self._reach(state, i, step.robot, above, f"above the {target}", follow=[hand])
         state.poses[obj] = goal
         self._reach(state, i, step.robot, hand, f"the placement on {target}", collide=False)
         del state.held[step.robot]
@@ -320,11 +323,17 @@ class Screen:
         what: str,
         collide: bool = True,
         ignore_others: bool = False,
+        follow: Sequence[FloatArray] = (),
     ) -> None:
         """Find an IK solution for ``robot`` (others where they are) or raise; with ``collide``,
         one that collides with nothing. The executors check collisions only where they plan a
         motion (pre-grasps, moves, above a placement); the straight lines that follow (approach,
-        grasp, lift, descent) may touch, so those poses are screened for IK alone."""
+        grasp, lift, descent) may touch, so those poses are screened for IK alone.
+
+        ``follow``: poses the hand then reaches in straight lines (an approach, a descent); the
+        solution must track them on its branch, as the executor's ``free_ik`` demands (the
+        executor failed this way in 9 of Hammer Place's 36 top-1 failures at 100 trials, log
+        docs/bench/trials/bimanual.jsonl, before the screen asked it too)."""
         mirror = self.world.mirror
         shoulder = mirror.robots[robot].world_from_base @ np.array([0.0, 0.0, SHOULDER_Z, 1.0])
         if float(np.linalg.norm(world_from_ee[:3, 3] - shoulder[:3])) > MAX_REACH:
@@ -337,6 +346,7 @@ class Screen:
         # grasps are hard to find from random starts); then random starts.
         seeds = [state.joints[robot], aimed, np.asarray(HOME_JOINTS, dtype=np.float64), *self.solved[robot]]
         hit_any = ""
+        dead_ends = 0
         for attempt in range(len(seeds) + IK_RANDOM_CALLS):
             seeded = attempt < len(seeds)
             seed = seeds[attempt] if seeded else self.rng.uniform(LOWER_LIMITS, UPPER_LIMITS)
@@ -344,6 +354,13 @@ class Screen:
             if solution is None:
                 continue
             hit = check(solution) if collide else None
+            if (
+                hit is None
+                and follow
+                and not tracks_lines(self.world, robot, solution, [world_from_ee, *follow], self.rng)
+            ):
+                dead_ends += 1
+                continue
             if hit is None:
                 state.joints[robot] = solution
                 if not seeded or attempt >= 3:
@@ -351,7 +368,10 @@ class Screen:
                 return
             hit_any = hit_any or f"{hit.moving} with {hit.other}"
         p = world_from_ee[:3, 3]
-        why = f"every IK solution collides ({hit_any})" if hit_any else "no IK solution"
+        if dead_ends:
+            why = "no straight line onwards from any free IK solution"
+        else:
+            why = f"every IK solution collides ({hit_any})" if hit_any else "no IK solution"
         raise _Infeasible(i, f"{robot}: {why} for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
 
     def _collision_check(self, state: _State, robot: str, ignore_others: bool = False) -> CollisionFn:

@@ -3,7 +3,6 @@ straight line, and the geometric checks that turn into failure type 1."""
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -18,6 +17,7 @@ from gfc.sim.control import (
     execute_paths,
     gripper_target,
     interpolate_poses,
+    tracks_lines,
     waypoint_count,
 )
 from gfc.sim.ik import solve_ik
@@ -93,23 +93,6 @@ def limit_margin(q: FloatArray) -> float:
     return float(np.min(np.minimum(q - LOWER_LIMITS, UPPER_LIMITS - q) / span))
 
 
-def line_feasible(
-    ctx: SkillContext, robot: str, q: FloatArray, start: FloatArray, follow: Sequence[FloatArray]
-) -> bool:
-    """Whether straight end-effector lines from ``start`` through ``follow`` can be tracked from
-    joint configuration ``q`` on one IK branch (the approach and lift after a reach)."""
-    poses = [start, *follow]
-    joints_now = q
-    for a, b in itertools.pairwise(poses):
-        path = cartesian_joint_path(
-            ctx.world, robot, joints_now, interpolate_poses(a, b, waypoint_count(a, b)), ctx.rng
-        )
-        if path is None:
-            return False
-        joints_now = path[-1]
-    return True
-
-
 def aimed_home(world_from_base: FloatArray, world_from_ee: FloatArray) -> FloatArray:
     """The home configuration turned (joint 1) to face the target: a natural IK start that
     keeps the elbow up and the wrist away from its limits."""
@@ -166,7 +149,11 @@ def free_ik_solutions(
         if q is None:
             continue
         hit = check(q)
-        if hit is None and follow and not line_feasible(ctx, robot, q, world_from_ee, follow):
+        if (
+            hit is None
+            and follow
+            and not tracks_lines(ctx.world, robot, q, [world_from_ee, *follow], ctx.rng)
+        ):
             dead_ends += 1
         elif hit is None:
             found.append(q)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import collections
 import re
+from dataclasses import replace
 
 from gfc.bench.methods import PlanSettings, make_method
 from gfc.sim.screen import screen_order
@@ -28,6 +29,7 @@ def main() -> None:
     parser.add_argument("--seeds", nargs=2, type=int, default=(0, 8), metavar=("FIRST", "END"))
     parser.add_argument("--method", default="gfc")
     parser.add_argument("--candidates", type=int, default=32)
+    parser.add_argument("--compensation", choices=("marginal", "mean", "none"), default=None)
     args = parser.parse_args()
     method = make_method(args.method, StoreLibrary(SkillStore(args.skills)))
     settings = PlanSettings(candidates=args.candidates, steps=50, screen=False)
@@ -35,6 +37,9 @@ def main() -> None:
     passed = []
     for seed in range(*args.seeds):
         instance = sample_task(args.task, seed)
+        if args.compensation is not None:
+            options = instance.plan.options.model_copy(update={"compensation": args.compensation})
+            instance = replace(instance, plan=instance.plan.model_copy(update={"options": options}))
         candidates = method(instance, settings).candidates
         # keep = all: every candidate gets a verdict (the benchmark stops at SCREEN_KEEP passes).
         _, verdicts = screen_order(instance.plan, candidates, keep=len(candidates) + 1, seed=seed)

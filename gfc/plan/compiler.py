@@ -105,6 +105,8 @@ def parse_plan(data: Any) -> PlanRequest:
 # A yaw goal's energy has sigma = tolerance / BOUND_SIGMAS (see the Yaw branch of the compiler).
 BOUND_SIGMAS = 3.0
 POUR_UPRIGHT_SIN = math.sin(math.radians(POUR_UPRIGHT_DEG))  # the upright factor's residual bound
+HANDOVER_CLEARANCE = 0.10  # m between the giver's and the receiver's grasp points
+HANDOVER_TOLERANCE = 0.01
 REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energy is 1/2
 
 _UNION_TAGS = {
@@ -148,6 +150,7 @@ class _Compiler:
         self.stages: list[tuple[int, ...]] = []
         self.terminal: list[tuple[int, str]] = []  # action-less steps without a learned factor
         self.robots = {r.name: r for r in plan.scene.robots}
+        self.grasp_action: dict[str, int] = {}  # robot -> the action of the grasp it holds by
         self.objects = {o.name: o for o in plan.scene.objects}
         self.state = _State()
         self.snapshots: list[dict[str, int]] = []  # entity -> node id after each stage
@@ -438,6 +441,10 @@ class _Compiler:
                     ),
                 )
             )
+            if spec.hands_over and action_id is not None and step.from_ in self.grasp_action:
+                self.add_hands_apart(self.grasp_action[step.from_], action_id)
+            if spec.grasps and action_id is not None:
+                self.grasp_action[step.robot] = action_id
             self.apply_holding(step, spec)
         self.add_closed_chain(valid, before, after)
         stage_index = len(self.snapshots)
@@ -493,6 +500,17 @@ class _Compiler:
         params = {"weight": 1.0, "tolerance": REACH_TOLERANCE, "shoulder": [float(v) for v in shoulder[:3]]}
         params["reach"] = PANDA_REACH
         self.spatial.append(SpatialFactor("reach", "implied", len(self.spatial), (node,), params))
+
+    def add_hands_apart(self, giver_grasp: int, receiver_grasp: int) -> None:
+        """At a hand-over both hands hold the object at once, so the receiver's grasp must
+        leave room for the giver's hand: their grasp points, both actions in the object's frame
+        (a carried object stays put in the hand, docs/adr/0002), at least HANDOVER_CLEARANCE
+        apart. Without it the pick model's grasps (anywhere along a hammer's handle) and the
+        regrasp model's were 3-5 cm apart, and the receiver's approach ran into the giver's
+        hand. On actions, not robot nodes: the nodes follow the grasps only loosely."""
+        params = {"weight": 1.0, "tolerance": HANDOVER_TOLERANCE, "distance": HANDOVER_CLEARANCE}
+        actions = (giver_grasp, receiver_grasp)
+        self.spatial.append(SpatialFactor("far", "implied", len(self.spatial), (), params, actions))
 
     def add_closed_chain(
         self, valid: list[tuple[int, Step, SkillSpec]], before: dict[str, int], after: dict[str, int]

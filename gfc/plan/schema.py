@@ -191,7 +191,7 @@ class Options(_Strict):
     steps: Annotated[int, Field(ge=1, le=MAX_SAMPLING_STEPS)] = 50
     seed: Annotated[int, Field(ge=0, le=2**63 - 1)] = 0
     sampler: Literal["euler", "heun"] = "euler"
-    compensation: Literal["marginal", "chain", "mean", "none"] = Field(
+    compensation: Literal["marginal", "mean", "none"] = Field(
         "marginal", description="how nodes shared by two skills are counted once (see docs/adr/0001)"
     )
     corrector_steps: Annotated[int, Field(ge=0, le=20)] = Field(

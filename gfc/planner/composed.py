@@ -28,7 +28,6 @@ Batching
 
 from __future__ import annotations
 
-from collections import Counter
 from typing import Literal
 
 import numpy as np
@@ -39,62 +38,17 @@ from gfc.geometry import POSE9_DIM, pose9_frame_map
 from gfc.plan.graph import CompiledPlan
 from gfc.planner.layout import VariableLayout, known_values_of
 from gfc.planner.spatial import SpatialTerms
-from gfc.skills.signatures import skill_spec
 
 KnownNodes = Literal["auto", "clean", "noised"]
 """How observed nodes enter the skill models: "clean" (as observed, flagged, for models trained
 with clean conditioning tokens: exact conditionals), "noised" (observed + sigma * eps, the
 replacement method: approximate), "auto" (clean when every model accepts it)."""
 
-Compensation = Literal["marginal", "chain", "mean", "none"]
+Compensation = Literal["marginal", "mean", "none"]
 """How nodes shared by several temporal factors are counted once: "marginal" subtracts
 (d-1)/d of each factor's marginal score (exact, one extra single-token row per factor and shared
-node); "chain" subtracts the whole marginal of every factor that reads the node as a pre-state
-(``chain_weights``: each later skill becomes a conditional on the state it starts from, so the
-pre-states its training data happened to start from stop pulling on the plan; ADR 0007);
-"mean" averages the factors' joint-score components instead (DESIGN.md's reading of the paper:
-no extra rows, but not the gradient of a density); "none" is the ablation."""
-
-
-def chain_weights(plan: CompiledPlan) -> dict[tuple[int, int], float]:
-    """(factor, token) -> the weight of that factor's marginal score of a shared free node under
-    "chain" compensation; a node in ``d`` temporal factors has ``d - 1`` marginals removed:
-
-    - every factor that reads the node as its pre-state loses its whole marginal of it (the skill
-      becomes a conditional on where it starts), unless its skill's pre-state was *designed*
-      (``SkillSpec.designed_pre_state``: a hand-over, a pour's meeting): that prior is the skill's
-      knowledge of where it can start, and it is kept;
-    - when such a reader keeps its prior, the factors that make the node (its effect) lose theirs
-      whole, and the K keepers share ``(K-1)/K`` each;
-    - otherwise the P makers share ``(P-1)/P`` each (a group's joint effect counted once);
-    - a node nobody makes and no designed reader: the readers share ``(d-1)/d``, as "marginal".
-    """
-    degree = plan.temporal_degree()
-    makers: Counter[int] = Counter()
-    keepers: Counter[int] = Counter()
-    for factor in plan.temporal:
-        designed = skill_spec(factor.skill).designed_pre_state
-        for token in factor.tokens:
-            if token.node is not None and token.phase == "effect":
-                makers[token.node] += 1
-            elif token.node is not None and token.phase == "pre" and designed:
-                keepers[token.node] += 1
-    weights: dict[tuple[int, int], float] = {}
-    for f, factor in enumerate(plan.temporal):
-        designed = skill_spec(factor.skill).designed_pre_state
-        for t, token in enumerate(factor.tokens):
-            node = token.node
-            if node is None or plan.nodes[node].known or degree[node] < 2:
-                continue
-            d, p, k = degree[node], makers[node], keepers[node]
-            if token.phase == "pre" and not designed and (p or k):
-                w = 1.0
-            elif token.phase == "pre":  # a keeper, or no maker at all
-                w = (k - 1) / k if k else (d - 1) / d
-            else:
-                w = 1.0 if k else (p - 1) / p
-            weights[f, t] = -w
-    return weights
+node); "mean" averages the factors' joint-score components instead (DESIGN.md's reading of the
+paper: no extra rows, but not the gradient of a density); "none" is the ablation."""
 
 
 def _token_frame(dim: int, world_from_model: np.ndarray, is_pose: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -133,7 +87,6 @@ class ComposedScore:
         n_factors, d_max = len(plan.temporal), bank.max_dim
         n_tokens = max(len(f.tokens) for f in plan.temporal)
         degree = plan.temporal_degree()
-        chained = chain_weights(plan) if compensation == "chain" else {}
         self.n_factors, self.n_tokens, self.d_max = n_factors, n_tokens, d_max
 
         full_dim = self.layout.free_dim + self.layout.known_dim
@@ -168,8 +121,6 @@ class ComposedScore:
                     shared = free and d >= 2
                     if shared and compensation == "marginal":
                         queries[f].append((t, -(d - 1) / d))
-                    elif shared and compensation == "chain":
-                        queries[f].append((t, chained[f, t]))
                     share = 1.0 / d if shared and compensation == "mean" else 1.0
                 else:
                     assert token.action is not None

@@ -70,10 +70,6 @@ class SkillSpec:
     # A terminal skill (no action, no effects) whose pre-state has a learned model: a factor
     # over its pre nodes alone (where the skill can start), e.g. the meetings a pour works from.
     learned_precondition: bool = False
-    # The pre-states of this skill's training data were drawn on purpose from where it works (a
-    # hand-over's held-out poses, a pour's meetings), not left over from a set-up: "chain"
-    # compensation keeps its prior over them (gfc.planner.composed.chain_weights).
-    designed_pre_state: bool = False
 
     @property
     def action_dim(self) -> int:
@@ -142,7 +138,6 @@ SKILLS: dict[str, SkillSpec] = _spec(
         requires_free=True,
         grasps=True,
         hands_over=True,
-        designed_pre_state=True,
     ),
     SkillSpec(
         "push",
@@ -184,7 +179,6 @@ SKILLS: dict[str, SkillSpec] = _spec(
         requires_held=True,
         target_required=True,
         learned_precondition=True,
-        designed_pre_state=True,
     ),
 )
 

@@ -119,6 +119,12 @@ def reach(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor
     return torch.relu(distance - params["reach"])
 
 
+def grasps_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """Two grasp actions on one object (pose9 in its frame) at least ``distance`` apart: room
+    for both hands at a hand-over. (B, 1)"""
+    return far(nodes, params)
+
+
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
     a, b = nodes
     diff = a[..., :3] - b[..., :3]
@@ -149,6 +155,7 @@ RESIDUALS: dict[str, Residual] = {
     "yaw": yaw,
     "upright": upright,
     "reach": reach,
+    "grasps_apart": grasps_apart,
     "near": near,
     "far": far,
 }

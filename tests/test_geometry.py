@@ -192,3 +192,40 @@ def test_near_and_far_are_one_sided() -> None:
     assert float(constraints.near([a, b], {"distance": 0.4})) == pytest.approx(0.1)
     assert float(constraints.far([a, b], {"distance": 0.4})) == 0.0
     assert float(constraints.far([a, b], {"distance": 0.7})) == pytest.approx(0.2)
+
+
+@given(
+    st.floats(0.0, 1.5),
+    st.floats(-math.pi, math.pi),
+    st.floats(-math.pi / 2, math.pi / 2),
+    st.floats(0.3, 1.0),
+)
+def test_reach_is_the_distance_beyond_the_bound_from_the_shoulder(
+    distance: float, azimuth: float, elevation: float, bound: float
+) -> None:
+    """A hand ``distance`` from the shoulder in any direction: zero within the bound, the excess
+    beyond it; the gripper value of a robot node plays no part."""
+    shoulder = np.array([0.1, -0.35, 0.958])
+    direction = np.array(
+        [
+            math.cos(elevation) * math.cos(azimuth),
+            math.cos(elevation) * math.sin(azimuth),
+            math.sin(elevation),
+        ]
+    )
+    hand = torch.cat(
+        [_node(*(shoulder + distance * direction)), torch.tensor([[0.04]], dtype=torch.float64)], 1
+    )
+    r = constraints.reach([hand], {"shoulder": list(shoulder), "reach": bound})
+    assert r.shape == (1, 1)
+    assert float(r) == pytest.approx(max(0.0, distance - bound), abs=1e-9)
+
+
+def test_grasps_apart_reads_the_grasp_positions_in_the_objects_frame() -> None:
+    """Two grasp actions (pose9 in the object's frame) 4 cm apart along the handle, rotations
+    differing: 6 cm short of a 10 cm clearance; 12 cm apart is clear."""
+    giver = _node(0.03, 0.0, 0.018)
+    receiver = _node(-0.01, 0.0, 0.018, math.pi)
+    params = {"distance": 0.10}
+    assert float(constraints.grasps_apart([giver, receiver], params)) == pytest.approx(0.06)
+    assert float(constraints.grasps_apart([giver, _node(-0.09, 0.0, 0.018)], params)) == 0.0

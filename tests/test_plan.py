@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gfc.examples import load_example
-from gfc.plan import PlanError, compile_plan, load_plan
+from gfc.plan import PlanError, compile_plan, load_plan, parse_plan
 
 
 def example() -> dict[str, Any]:
@@ -42,15 +42,23 @@ def test_example_compiles_to_expected_node_versions() -> None:
         ("regrasp.hammer", ["right@0", "hammer@2", "left@2"], ["right@1", "hammer@3", "left@3"]),
         ("place.hammer.box", ["right@1", "hammer@3", "box@0"], ["right@2", "hammer@4"]),
     ]
+    # The compiler implies physics of its own: every hand it samples within its arm's reach, and
+    # at the hand-over the receiver's grasp (step 2's action) clear of the giver's (step 0's).
     assert summary["spatial_factors"] == [
-        {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]}
-    ]
+        {"type": "reach", "source": "implied", "index": 0, "nodes": ["left@1"]},
+        {"type": "reach", "source": "implied", "index": 1, "nodes": ["left@2"]},
+        {"type": "reach", "source": "implied", "index": 2, "nodes": ["right@1"]},
+        {"type": "reach", "source": "implied", "index": 3, "nodes": ["left@3"]},
+        {"type": "grasps_apart", "source": "implied", "index": 4, "nodes": [], "actions_of_steps": [0, 2]},
+        {"type": "reach", "source": "implied", "index": 5, "nodes": ["right@2"]},
+        {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]},
+    ]  # fmt: skip
     # With the kinematic links on, the skills imply two more factors: the hammer stays put in the
     # moving hand; the place's action is where the hammer rests in the box.
     linked = compile_plan({**example(), "options": {"kinematics": True}}).summary()
-    assert linked["spatial_factors"] == [
-        {"type": "fixed_transform", "source": "implied", "index": 0, "nodes": ["left@1", "hammer@1", "left@2", "hammer@2"]},
-        {"type": "relative_pose", "source": "implied", "index": 1, "nodes": ["box@0", "hammer@4"], "actions_of_steps": [3]},
+    assert [f for f in linked["spatial_factors"] if f["type"] not in ("reach", "grasps_apart")] == [
+        {"type": "fixed_transform", "source": "implied", "index": 2, "nodes": ["left@1", "hammer@1", "left@2", "hammer@2"]},
+        {"type": "relative_pose", "source": "implied", "index": 7, "nodes": ["box@0", "hammer@4"], "actions_of_steps": [3]},
         {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]},
     ]  # fmt: skip
     assert summary["shared_nodes"] == [
@@ -110,19 +118,21 @@ def test_group_shares_one_new_version_of_a_jointly_held_object() -> None:
     # constraint and goal: the two hands keep their relative pose (the closed chain) and, with the
     # kinematic links on, each hand keeps the pot where it holds it.
     linked = compile_plan({**plan, "options": {"kinematics": True}})
-    implied = [f for f in linked.spatial if f.source == "implied"]
+    implied = [f for f in linked.spatial if f.source == "implied" and f.type != "reach"]
     assert [(f.type, [linked.nodes[n].label for n in f.nodes]) for f in implied] == [
         ("fixed_transform", ["left@1", "pot@1", "left@2", "pot@2"]),
         ("fixed_transform", ["right@1", "pot@1", "right@2", "pot@2"]),
         ("fixed_transform", ["left@1", "right@1", "left@2", "right@2"]),
     ]
     # By default (links off) the closed chain stays.
-    assert [[graph.nodes[n].label for n in f.nodes] for f in graph.spatial if f.source == "implied"] == [
-        ["left@1", "right@1", "left@2", "right@2"]
-    ]
+    assert [
+        [graph.nodes[n].label for n in f.nodes]
+        for f in graph.spatial
+        if f.source == "implied" and f.type != "reach"
+    ] == [["left@1", "right@1", "left@2", "right@2"]]
     plan["skeleton"] = plan["skeleton"][:2]  # a two-handed pick alone: nothing held through a move yet
     plan["constraints"], plan["goal"] = [], []
-    assert not [f for f in compile_plan(plan).spatial if f.source == "implied"]
+    assert not [f for f in compile_plan(plan).spatial if f.source == "implied" and f.type != "reach"]
 
 
 def test_a_place_links_its_action_to_where_the_object_rests() -> None:
@@ -141,7 +151,7 @@ def test_a_place_links_its_action_to_where_the_object_rests() -> None:
         "options": {"kinematics": True},
     }
     graph = compile_plan(plan)
-    (link,) = [f for f in graph.spatial if f.source == "implied"]
+    (link,) = [f for f in graph.spatial if f.source == "implied" and f.type != "reach"]
     place_action = next(a for a in graph.actions if a.step == 1)
     assert link.type == "relative_pose"
     assert [graph.nodes[n].label for n in link.nodes] == ["box@0", "cube@2"]
@@ -432,3 +442,30 @@ def test_a_pour_is_a_factor_over_its_pre_nodes_and_a_strike_stays_terminal() -> 
     nail = compile_plan(sample_task("hammer_nail", 0).plan)
     assert [skill for _, skill in nail.terminal] == ["strike"]
     assert all(f.skill != "strike" for f in nail.temporal)
+
+
+def test_the_compiler_keeps_every_hand_in_reach_and_a_handovers_grasps_apart() -> None:
+    """Physics the compiler implies whatever the plan states: each sampled hand within
+    PANDA_REACH of its arm's shoulder, and at each hand-over the receiver's grasp action clear of
+    the grasp by which the giver holds the object (its pick, or the regrasp that gave it to it)."""
+    from gfc.kinds import PANDA_REACH, PANDA_SHOULDER_Z
+
+    plan = example()
+    plan["skeleton"] = [
+        {"skill": "pick", "robot": "left", "object": "hammer"},
+        {"skill": "regrasp", "robot": "right", "object": "hammer", "from": "left"},
+        {"skill": "regrasp", "robot": "left", "object": "hammer", "from": "right"},
+    ]
+    plan["goal"] = []
+    graph = compile_plan(plan)
+    reach = [f for f in graph.spatial if f.type == "reach"]
+    assert sorted(graph.nodes[f.nodes[0]].label for f in reach) == sorted(
+        n.label for n in graph.free if n.entity_type == "robot"
+    )
+    for f in reach:
+        base = next(r.base for r in parse_plan(plan).scene.robots if r.name == graph.nodes[f.nodes[0]].entity)
+        assert f.params["shoulder"] == pytest.approx([base[0], base[1], base[2] + PANDA_SHOULDER_Z])
+        assert f.params["reach"] == PANDA_REACH
+    action_of_step = {a.step: a.id for a in graph.actions}
+    apart = [f.actions for f in graph.spatial if f.type == "grasps_apart"]
+    assert apart == [(action_of_step[0], action_of_step[1]), (action_of_step[1], action_of_step[2])]

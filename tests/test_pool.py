@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -68,7 +69,6 @@ sys.stdin.read()
 """
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
 def test_workers_die_when_the_parent_is_killed() -> None:
     """SIGTERM on a run's parent takes its pool workers with it (they used to keep simulating)."""
     parent = subprocess.Popen(
@@ -87,6 +87,20 @@ def test_workers_die_when_the_parent_is_killed() -> None:
     while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not any(_alive(pid) for pid in workers), "a worker outlived its killed parent"
+
+
+def test_kept_alive_workers_outlive_the_thread_that_started_them() -> None:
+    """gfc bench tasks maps from one short-lived thread per task; the workers those threads started
+    must serve the next task (with PR_SET_PDEATHSIG they died with the first thread)."""
+    with LocalPool(2, keep_alive=True) as pool:
+        first: list[list[tuple[int, int]]] = []
+        starter = threading.Thread(target=lambda: first.append(pool.map(square_plus_pid, range(4))))
+        starter.start()
+        starter.join()
+        time.sleep(0.5)  # PDEATHSIG's SIGTERM arrives right after the thread exits
+        again = pool.map(square_plus_pid, range(4))
+    assert [r[0] for r in again] == [0, 1, 4, 9]
+    assert [r[0] for r in first[0]] == [0, 1, 4, 9]
 
 
 def _alive(pid: int) -> bool:

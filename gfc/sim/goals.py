@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from gfc.geometry import FloatArray, pose7_to_matrix
-from gfc.kinds import object_kind
+from gfc.kinds import ObjectKind, object_kind
 from gfc.plan.schema import Aligned, Far, FixedTransform, Inside, Near, SpatialFactorSpec, Yaw
 from gfc.sim.panda import ee_matrix
 from gfc.sim.world import World, object_matrix, yaw_of
+
+Poses = Callable[[str], FloatArray]  # entity name -> world 4x4 (a robot: its end effector)
+Kinds = Callable[[str], ObjectKind | None]  # entity name -> its object kind (None: a robot)
 
 
 def entity_matrix(world: World, name: str) -> FloatArray:
@@ -19,19 +23,28 @@ def entity_matrix(world: World, name: str) -> FloatArray:
     return object_matrix(world.physics, name)
 
 
-def _frame(world: World, name: str, frame: str | None) -> FloatArray:
-    base = entity_matrix(world, name)
-    if name in world.physics.robots:
-        return base
-    return base @ pose7_to_matrix(object_kind(world.physics.objects[name].kind).frame(frame))
+def _frame(poses: Poses, kinds: Kinds, name: str, frame: str | None) -> FloatArray:
+    kind = kinds(name)
+    base = poses(name)
+    return base if kind is None else base @ pose7_to_matrix(kind.frame(frame))
 
 
 def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
-    """Whether one predicate holds now, and a line saying by how much."""
+    """Whether one predicate holds now in the simulator, and a line saying by how much."""
+
+    def kinds(name: str) -> ObjectKind | None:
+        return None if name in world.physics.robots else object_kind(world.physics.objects[name].kind)
+
+    return check_predicate_on(lambda name: entity_matrix(world, name), kinds, spec)
+
+
+def check_predicate_on(poses: Poses, kinds: Kinds, spec: SpatialFactorSpec) -> tuple[bool, str]:
+    """Whether one predicate holds for entities at ``poses``, and a line saying by how much.
+    (The simulator's state, or a kinematic walk's: gfc/sim/screen.py.)"""
     if isinstance(spec, Inside):
-        kind = object_kind(world.physics.objects[spec.target].kind)
-        assert kind.inner_half_extents is not None
-        local = np.linalg.inv(entity_matrix(world, spec.target)) @ entity_matrix(world, spec.object)[:, 3]
+        kind = kinds(spec.target)
+        assert kind is not None and kind.inner_half_extents is not None
+        local = np.linalg.inv(poses(spec.target)) @ poses(spec.object)[:, 3]
         half = np.asarray(kind.inner_half_extents)
         # The bottom centre must lie within the opening in xy and between the floor and the rim.
         inside_xy = bool(np.all(np.abs(local[:2]) <= half[:2] + spec.margin))
@@ -39,8 +52,8 @@ def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
         where = f"({local[0]:+.3f}, {local[1]:+.3f}, {local[2]:+.3f}) in {spec.target}"
         return inside_xy and inside_z, f"inside({spec.object}, {spec.target}): bottom at {where}"
     if isinstance(spec, Aligned):
-        a = _frame(world, spec.object, spec.frame)[:3, 3]
-        b = _frame(world, spec.target, spec.target_frame)[:3, 3]
+        a = _frame(poses, kinds, spec.object, spec.frame)[:3, 3]
+        b = _frame(poses, kinds, spec.target, spec.target_frame)[:3, 3]
         xy = float(np.linalg.norm(a[:2] - b[:2]))
         ok = abs(xy - spec.offset) <= spec.tolerance
         text = f"aligned({spec.object}, {spec.target}): {xy * 100:.1f} cm apart in xy"
@@ -52,7 +65,7 @@ def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
             text += f", {dz * 100:.1f} cm above (want {spec.height * 100:.1f})"
         return ok, text
     if isinstance(spec, Yaw):
-        yaw = yaw_of(entity_matrix(world, spec.object))
+        yaw = yaw_of(poses(spec.object))
         err = math.degrees(
             math.atan2(
                 math.sin(yaw - math.radians(spec.yaw_deg)),
@@ -64,11 +77,7 @@ def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
             f"yaw({spec.object}) = {math.degrees(yaw):.1f} deg ({err:+.1f} off)",
         )
     if isinstance(spec, Near | Far):
-        d = float(
-            np.linalg.norm(
-                entity_matrix(world, spec.object)[:3, 3] - entity_matrix(world, spec.target)[:3, 3]
-            )
-        )
+        d = float(np.linalg.norm(poses(spec.object)[:3, 3] - poses(spec.target)[:3, 3]))
         ok = d <= spec.distance if isinstance(spec, Near) else d >= spec.distance
         return ok, f"{spec.type}({spec.object}, {spec.target}): {d:.3f} m (limit {spec.distance})"
     if isinstance(spec, FixedTransform):
@@ -77,7 +86,7 @@ def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
                 True,
                 "fixed_transform over several states is checked step by step, not at the end",
             )
-        rel = np.linalg.inv(entity_matrix(world, spec.object)) @ entity_matrix(world, spec.target)
+        rel = np.linalg.inv(poses(spec.object)) @ poses(spec.target)
         d = float(np.linalg.norm(rel[:3, 3] - np.asarray(spec.transform[:3])))
         return (
             d <= spec.tolerance,

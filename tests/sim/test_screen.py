@@ -11,7 +11,8 @@ from gfc.kinds import PANDA_REACH, PANDA_SHOULDER_Z
 from gfc.sim import screen as screen_module
 from gfc.sim.screen import Screen, Verdict, screen_order
 from gfc.sim.skills.motions import translated
-from gfc.tasks import TASKS, sample_task
+from gfc.sim.execute import execute_plan
+from gfc.tasks import SINGLE_ARM, TASKS, sample_task
 
 SCENES = 4
 
@@ -29,7 +30,7 @@ def _step_of(task: str, skill: str, obj: str | None = None) -> int:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task", sorted(TASKS))
+@pytest.mark.parametrize("task", sorted(TASKS) + sorted(SINGLE_ARM))
 def test_the_reference_parameters_pass(task: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """They succeed in the simulator (tests/sim/test_tasks.py), so the screen must let them by.
     Every hand pose they ask for is also within the planner's reach factor (PANDA_REACH from the
@@ -151,3 +152,57 @@ def test_screen_order_puts_passing_candidates_first_in_their_order() -> None:
     assert verdicts[0] is not None and not verdicts[0].feasible
     assert verdicts[1] is not None and verdicts[1].feasible
     assert verdicts[2] is None and verdicts[3] is None  # screening stopped after one pass
+
+
+def test_a_pull_that_misses_the_block_with_the_hooks_face_fails_at_the_pull() -> None:
+    """The tip 6 cm further to the block's -y side: the block's centre lies beyond the end of the
+    hook's bar, which would sweep past it (the simulator reports type 3: not moved)."""
+    pull = _step_of("hook_reach_t1", "pull")
+    verdict = _screen_shifted("hook_reach_t1", pull, 1, -0.06)
+    assert not verdict.feasible
+    assert verdict.step == pull
+    assert "off the hook's face" in verdict.reason
+
+
+def test_the_steps_after_a_pull_are_screened() -> None:
+    """Screening used to stop at the first stroke; now the hook's placement on the rack, after
+    the pull, is checked too (here 60 cm above the rack: out of reach)."""
+    place = _step_of("hook_reach_t1", "place", "hook")
+    verdict = _screen_shifted("hook_reach_t1", place, 2, 0.6)
+    assert not verdict.feasible
+    assert verdict.step == place
+
+
+def test_a_push_that_stops_short_fails_on_the_goal() -> None:
+    """Every pose reachable, but a push 8 cm shorter leaves the block outside the goal's 4 cm:
+    the end state is checked on the walked poses (the block slid by the contact model)."""
+    push = _step_of("rearrangement_push_t1", "push")
+    verdict = _screen_shifted("rearrangement_push_t1", push, 2, -0.08)
+    assert not verdict.feasible
+    assert verdict.step is None
+    assert "the goal would not hold: aligned(block, rack)" in verdict.reason
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("task", ["hook_reach_t1", "rearrangement_push_t1"])
+def test_where_the_screen_slides_a_stroked_block_is_where_the_simulator_leaves_it(
+    task: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The contact model's prediction against physics, for the tasks' reference strokes (the
+    simulator moves the block only through the hook's contact)."""
+    predicted: dict[int, FloatArray] = {}
+    real_stroke = Screen._stroke
+
+    def recorded(self: Screen, state: object, i: int, step: object, action: FloatArray, sign: float) -> None:
+        real_stroke(self, state, i, step, action, sign)  # type: ignore[arg-type]
+        predicted[i] = state.poses["block"].copy()  # type: ignore[attr-defined]
+
+    monkeypatch.setattr(Screen, "_stroke", recorded)
+    instance = sample_task(task, 0)
+    with Screen(instance.plan) as screen:
+        assert screen.check(_reference(task, 0)).feasible
+    outcome = execute_plan(instance.plan, _reference(task, 0), seed=0)
+    assert outcome.success, outcome
+    (stroke,) = predicted
+    actual = np.asarray(outcome.steps[stroke].poses["block"][:2])
+    assert np.linalg.norm(predicted[stroke][:2, 3] - actual) < 0.01

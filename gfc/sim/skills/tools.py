@@ -19,11 +19,13 @@ hit rates alone, type 1, docs/skill_learning.md); in the approach frame it is on
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from gfc.geometry import FloatArray, approach_frame, invert, pose7_to_matrix
-from gfc.kinds import object_kind
+from gfc.kinds import ObjectKind, object_kind
 from gfc.plan.schema import Step
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, straight, translated
@@ -33,21 +35,43 @@ HOVER = 0.08  # m above the working height where the tool is lowered from
 MAX_STROKE = 0.3
 RETREAT_FALLBACK = 0.03  # m: the lift tried when the full one cannot be tracked
 MIN_TARGET_MOTION = 0.01  # m the target must move for the stroke to count
+# The hook's tip bar (gfc/sim/bodies.py ``_hook``), in the hook's frame: it spans x within
+# TIP_BAR_HALF_X of the tip frame, and y from TIP_BAR_Y[0] to TIP_BAR_Y[1]; the shaft runs along
+# x over SHAFT_Y. A pull drags the target with the bar's inner face (-x); a push pushes it with
+# the hook's far end (+x), bar and shaft together.
+TIP_BAR_HALF_X = 0.015
+TIP_BAR_Y = (-0.03, 0.06)
+SHAFT_Y = (-0.06, -0.03)
+CONTACT_SLACK = 0.003  # m: what a contact prediction may be off by
 
 
-def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> str:
-    world, robot, tool, target = ctx.world, step.robot, step.object, step.target
-    assert tool is not None
-    assert target is not None
-    require_holding(world, robot, tool)
+@dataclass(frozen=True)
+class StrokePoses:
+    """Where a stroke puts the tool and the hand (world 4x4s), as the executor commands them."""
+
+    world_from_tool: FloatArray  # the tool flat on the table at the stroke's start
+    above: FloatArray  # the hand HOVER above the start, where the tool is lowered from
+    start: FloatArray  # the hand at the working height
+    end: FloatArray  # the hand after travelling r along the stroke
+    direction: FloatArray  # (3,) unit travel direction (world, horizontal)
+
+
+def stroke_poses(
+    world_from_base: FloatArray,
+    world_from_target: FloatArray,
+    tool_kind: ObjectKind,
+    ee_from_object: FloatArray,
+    action: FloatArray,
+    sign: float,
+) -> StrokePoses:
+    """The hand poses of a push (``sign`` +1) or pull (-1) with ``action`` ``(x, y, r, theta)``;
+    raises type 1 for a stroke length outside (0, MAX_STROKE] or a tool without a tip. Shared by
+    the executor and the kinematic screen (gfc/sim/screen.py), so both ask for the same poses."""
     x, y, r, theta = (float(v) for v in action)
     if not 0.0 < r <= MAX_STROKE:
         raise SkillFailure(FailureType.METHOD, f"stroke length r = {r:.2f} m outside (0, {MAX_STROKE}]")
-    tool_kind = object_kind(world.physics.objects[tool].kind)
     if "tip" not in tool_kind.frames:
-        raise SkillFailure(FailureType.METHOD, f"{tool} has no tip to push or pull with")
-    world_from_target = object_matrix(world.physics, target)
-    world_from_base = world.physics.robots[robot].world_from_base
+        raise SkillFailure(FailureType.METHOD, f"the {tool_kind.name} has no tip to push or pull with")
     world_from_approach = approach_frame(world_from_base[:3, 3], world_from_target[:3, 3])
     yaw = math.atan2(world_from_approach[1, 0], world_from_approach[0, 0]) + theta
     tip_world = world_from_approach @ np.array([x, y, 0.0, 1.0])
@@ -58,14 +82,93 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
     world_from_tool[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     world_from_tool[:3, 3] = tip_world[:3] - world_from_tool[:3, :3] @ object_from_tip[:3, 3]
     world_from_tool[2, 3] = world_from_target[2, 3] + 0.002
-    world_from_ee = world_from_tool @ invert(world.grasps[robot].ee_from_object)
+    start = world_from_tool @ invert(ee_from_object)
     direction = sign * world_from_tool[:3, 0]
-    stroke_end = translated(world_from_ee, r * direction)
-    above = translated(world_from_ee, [0.0, 0.0, HOVER])
-    reach(ctx, robot, above, f"above the {target}", [world_from_ee, stroke_end])
-    straight(ctx, robot, world_from_ee, "the working height")
+    return StrokePoses(
+        world_from_tool,
+        translated(start, [0.0, 0.0, HOVER]),
+        start,
+        translated(start, r * direction),
+        direction,
+    )
+
+
+@dataclass(frozen=True)
+class StrokeContact:
+    """What a stroke does to its target, predicted from geometry alone (no physics)."""
+
+    gap: float  # m the hand travels before the tool touches the target
+    travel: float  # m the target is carried (the stroke's r less the gap)
+
+    def moved(self, world_from_target: FloatArray, direction: FloatArray) -> FloatArray:
+        """The target's pose after the stroke: carried ``travel`` along ``direction``."""
+        return translated(world_from_target, self.travel * direction)
+
+
+def stroke_contact(
+    tool_kind: ObjectKind,
+    world_from_tool: FloatArray,
+    target_half_extents: Sequence[float],
+    world_from_target: FloatArray,
+    r: float,
+    sign: float,
+) -> StrokeContact:
+    """Where the hook meets a box-shaped target on a stroke (``sign`` +1 push, -1 pull) of
+    length ``r`` from the tool pose ``world_from_tool``; raises type 3 when it would not move
+    it (outside the hook's face, or farther than r) or type 2 when the lowered tool would land
+    on it. Used by the kinematic screen to follow a stroke without physics: the target slides
+    along the stroke by what is left of r once the gap is closed, keeping its yaw (a few mm and
+    degrees off what the simulator does for the tasks' strokes)."""
+    tool_from_target = invert(world_from_tool) @ world_from_target
+    bx, by = tool_from_target[0, 3], tool_from_target[1, 3]
+    c, s = abs(tool_from_target[0, 0]), abs(tool_from_target[1, 0])
+    ex, ey = float(target_half_extents[0]), float(target_half_extents[1])
+    half_x, half_y = c * ex + s * ey, s * ex + c * ey  # the target's extent along the tool's axes
+    tip_x = float(tool_kind.frame("tip")[0])
+    if sign > 0:
+        face, lateral = tip_x + TIP_BAR_HALF_X, (SHAFT_Y[0], TIP_BAR_Y[1])
+        gap = (bx - half_x) - face
+    else:
+        face, lateral = tip_x - TIP_BAR_HALF_X, TIP_BAR_Y
+        gap = face - (bx + half_x)
+        if by - half_y < SHAFT_Y[1] and bx - half_x < tip_x + TIP_BAR_HALF_X:
+            raise SkillFailure(
+                FailureType.PATH, f"the shaft would land on the target ({by * 100:.1f} cm to its side)"
+            )
+    if not lateral[0] <= by <= lateral[1]:
+        raise SkillFailure(
+            FailureType.PHYSICS, f"the target's centre is {by * 100:.1f} cm to the side: off the hook's face"
+        )
+    if gap < -CONTACT_SLACK:
+        raise SkillFailure(
+            FailureType.PATH, f"the lowered tool would land on the target ({-gap * 100:.1f} cm)"
+        )
+    travel = r - max(gap, 0.0)
+    if travel < MIN_TARGET_MOTION + CONTACT_SLACK:
+        raise SkillFailure(
+            FailureType.PHYSICS,
+            f"the stroke ends {gap * 100:.1f} cm away, {travel * 100:.1f} cm into the target",
+        )
+    return StrokeContact(gap, travel)
+
+
+def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> str:
+    world, robot, tool, target = ctx.world, step.robot, step.object, step.target
+    assert tool is not None
+    assert target is not None
+    require_holding(world, robot, tool)
+    poses = stroke_poses(
+        world.physics.robots[robot].world_from_base,
+        object_matrix(world.physics, target),
+        object_kind(world.physics.objects[tool].kind),
+        world.grasps[robot].ee_from_object,
+        action,
+        sign,
+    )
+    reach(ctx, robot, poses.above, f"above the {target}", [poses.start, poses.end])
+    straight(ctx, robot, poses.start, "the working height")
     before = object_matrix(world.physics, target)[:3, 3]
-    straight(ctx, robot, stroke_end, "the end of the stroke", speed=0.4)
+    straight(ctx, robot, poses.end, "the end of the stroke", speed=0.4)
     _retreat(ctx, robot)
     moved = float(np.linalg.norm(object_matrix(world.physics, target)[:2, 3] - before[:2]))
     if moved < MIN_TARGET_MOTION:

@@ -1,0 +1,106 @@
+"""The geometric contact model of push and pull (gfc.sim.skills.tools.stroke_contact): analytic
+cases with known answers, its invariance to where the stroke happens, and its agreement with the
+hook the simulator builds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gfc.geometry import FloatArray
+from gfc.kinds import object_kind
+from gfc.sim.bodies import recipe_for
+from gfc.sim.outcome import FailureType, SkillFailure
+from gfc.sim.skills.tools import SHAFT_Y, TIP_BAR_HALF_X, TIP_BAR_Y, stroke_contact
+
+HOOK = object_kind("hook")
+BLOCK = object_kind("block").half_extents  # 2.5 cm half sides
+TIP_X = HOOK.frame("tip")[0]  # 0.185 m along the hook
+
+
+def _pose(x: float, y: float, yaw: float = 0.0) -> FloatArray:
+    m = np.eye(4)
+    c, s = math.cos(yaw), math.sin(yaw)
+    m[:2, :2] = [[c, -s], [s, c]]
+    m[:2, 3] = [x, y]
+    return m
+
+
+def test_the_constants_describe_the_hook_the_simulator_builds() -> None:
+    shaft, tip = recipe_for("hook").parts
+    assert tip.half[0] == pytest.approx(TIP_BAR_HALF_X)
+    assert tip.centre[0] == pytest.approx(TIP_X)
+    assert (tip.centre[1] - tip.half[1], tip.centre[1] + tip.half[1]) == pytest.approx(TIP_BAR_Y)
+    assert (shaft.centre[1] - shaft.half[1], shaft.centre[1] + shaft.half[1]) == pytest.approx(SHAFT_Y)
+
+
+def test_a_pull_closes_its_gap_and_carries_the_block_the_rest() -> None:
+    # The tasks' reference pull: the tip 5 cm beyond the block's centre, 3 cm to its side; the
+    # bar's inner face (tip - 1.5 cm) is then 1 cm from the block's far face.
+    block = _pose(TIP_X - 0.05, 0.02)
+    contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.26, sign=-1.0)
+    assert contact.gap == pytest.approx(0.01)
+    assert contact.travel == pytest.approx(0.25)
+    moved = contact.moved(block, np.array([-1.0, 0.0, 0.0]))
+    np.testing.assert_allclose(moved[:3, 3], [TIP_X - 0.30, 0.02, 0.0], atol=1e-12)
+
+
+def test_a_push_meets_the_block_with_the_hooks_far_end() -> None:
+    block = _pose(TIP_X + 0.05, 0.02)
+    contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.13, sign=1.0)
+    assert contact.gap == pytest.approx(0.01)
+    assert contact.travel == pytest.approx(0.12)
+
+
+def test_a_turned_block_reaches_further_along_the_stroke() -> None:
+    """At 45 degrees a 5 cm block reaches 2.5 * sqrt(2) cm from its centre: the gap shrinks."""
+    block = _pose(TIP_X - 0.06, 0.02, math.pi / 4)
+    contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.2, sign=-1.0)
+    assert contact.gap == pytest.approx(0.06 - TIP_BAR_HALF_X - 0.025 * math.sqrt(2))
+
+
+@pytest.mark.parametrize(
+    ("block", "r", "sign", "failure", "words"),
+    [
+        (_pose(TIP_X - 0.05, 0.08), 0.2, -1.0, FailureType.PHYSICS, "off the hook's face"),
+        (_pose(TIP_X - 0.05, -0.01), 0.2, -1.0, FailureType.PATH, "shaft would land on the target"),
+        (_pose(TIP_X - 0.02, 0.02), 0.2, -1.0, FailureType.PATH, "lowered tool would land"),
+        (_pose(TIP_X - 0.05, 0.02), 0.015, -1.0, FailureType.PHYSICS, "the stroke ends"),
+        (_pose(TIP_X + 0.15, 0.02), 0.1, 1.0, FailureType.PHYSICS, "the stroke ends"),
+    ],
+    ids=["off-the-face", "on-the-shaft", "under-the-tip", "too-short", "push-too-far"],
+)
+def test_strokes_that_would_not_move_the_block_fail_with_their_reason(
+    block: FloatArray, r: float, sign: float, failure: FailureType, words: str
+) -> None:
+    with pytest.raises(SkillFailure, match=words) as info:
+        stroke_contact(HOOK, np.eye(4), BLOCK, block, r=r, sign=sign)
+    assert info.value.failure_type == failure
+
+
+@given(
+    gap=st.floats(0.0, 0.1),
+    extra=st.floats(0.02, 0.15),
+    side=st.floats(0.0, 0.04),
+    x=st.floats(-1.0, 1.0),
+    y=st.floats(-1.0, 1.0),
+    yaw=st.floats(-math.pi, math.pi),
+    pull=st.booleans(),
+)
+def test_contact_depends_only_on_where_the_block_is_relative_to_the_tool(
+    gap: float, extra: float, side: float, x: float, y: float, yaw: float, pull: bool
+) -> None:
+    """Moving tool and block together anywhere on the table changes neither the gap nor the
+    travel, and the travel is what the stroke has left once the gap is closed."""
+    sign = -1.0 if pull else 1.0
+    face = TIP_X - TIP_BAR_HALF_X if pull else TIP_X + TIP_BAR_HALF_X
+    centre = face - gap - BLOCK[0] if pull else face + gap + BLOCK[0]
+    block_in_tool = _pose(centre, side)
+    world_from_tool = _pose(x, y, yaw)
+    contact = stroke_contact(HOOK, world_from_tool, BLOCK, world_from_tool @ block_in_tool, gap + extra, sign)
+    assert contact.gap == pytest.approx(gap, abs=1e-9)
+    assert contact.travel == pytest.approx(extra, abs=1e-9)

@@ -9,9 +9,9 @@ import pytest
 from gfc.geometry import FloatArray
 from gfc.kinds import PANDA_REACH, PANDA_SHOULDER_Z
 from gfc.sim import screen as screen_module
+from gfc.sim.execute import execute_plan
 from gfc.sim.screen import Screen, Verdict, screen_order
 from gfc.sim.skills.motions import translated
-from gfc.sim.execute import execute_plan
 from gfc.tasks import SINGLE_ARM, TASKS, sample_task
 
 SCENES = 4

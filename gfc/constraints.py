@@ -125,6 +125,40 @@ def grasps_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch
     return far(nodes, params)
 
 
+def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """A push (``sign`` +1) or pull (-1) with a hook moves its box-shaped target the way the
+    hook's geometry says (gfc/sim/skills/tools.py ``stroke_contact``, the screen's model; within
+    a few mm of the simulator on the tasks' strokes). Inputs: (target before, target after,
+    action ``(x, y, r, theta)`` in the target's approach frame from the robot's ``base``).
+
+    Residuals (B, 4), metres: the target's xy after the stroke minus where the hook leaves it
+    (slid along the stroke by r less the gap the hook closes first); how far the target's centre
+    is outside the hook's face (``lateral``, the y span that catches it); and how far the tool
+    would start inside the target (a negative gap)."""
+    before, after, action = nodes
+    pose = _pose_of(before)  # (B, 4, 4)
+    centre = pose[..., :2, 3]  # (B, 2)
+    base = torch.tensor(params["base"][:2], dtype=before.dtype)
+    rel = centre - base
+    approach_yaw = torch.atan2(rel[..., 1], rel[..., 0])  # (B,)
+    x, y, r, theta = action[..., 0], action[..., 1], action[..., 2], action[..., 3]
+    tool_yaw = approach_yaw + theta
+    sign = float(params["sign"])
+    # The target's centre in the tool's frame: the tip frame less the action's tip offset.
+    along = torch.cos(theta) * x + torch.sin(theta) * y
+    across = float(params["tip"][1]) - (-torch.sin(theta) * x + torch.cos(theta) * y)
+    turn = yaw_of_transform(pose) - tool_yaw
+    ex, ey = params["half_extents"][:2]
+    half_x = ex * torch.cos(turn).abs() + ey * torch.sin(turn).abs()
+    gap = -sign * along - float(params["bar_half_x"]) - half_x  # (B,)
+    travel = torch.relu(r - torch.relu(gap))
+    direction = sign * torch.stack([torch.cos(tool_yaw), torch.sin(tool_yaw)], dim=-1)  # (B, 2)
+    slid = centre + travel.unsqueeze(-1) * direction
+    low, high = params["lateral"]
+    outside = torch.relu(low - across) + torch.relu(across - high)
+    return torch.cat([after[..., :2] - slid, outside.unsqueeze(-1), torch.relu(-gap).unsqueeze(-1)], dim=-1)
+
+
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
     a, b = nodes
     diff = a[..., :3] - b[..., :3]
@@ -156,6 +190,7 @@ RESIDUALS: dict[str, Residual] = {
     "upright": upright,
     "reach": reach,
     "grasps_apart": grasps_apart,
+    "stroke": stroke,
     "near": near,
     "far": far,
 }

@@ -34,6 +34,14 @@ IDENTITY_FRAME = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 PANDA_SHOULDER_Z = 0.333
 PANDA_REACH = 0.85
 
+# The hook's working faces (gfc/sim/bodies.py ``_hook`` builds them), in the hook's frame: its
+# tip bar spans x within HOOK_TIP_BAR_HALF_X of the ``tip`` frame and y over HOOK_TIP_BAR_Y; the
+# shaft runs along x over HOOK_SHAFT_Y. A pull drags its target with the bar's inner face (-x);
+# a push pushes it with the hook's far end (+x), bar and shaft together.
+HOOK_TIP_BAR_HALF_X = 0.015
+HOOK_TIP_BAR_Y = (-0.03, 0.06)
+HOOK_SHAFT_Y = (-0.06, -0.03)
+
 
 @dataclass(frozen=True)
 class ObjectKind:

@@ -71,6 +71,7 @@ SHOULDER_Z = 0.333
 MAX_REACH = 0.98
 REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
 OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
+PLACE_OVERLAP = 0.002  # m a released object may overlap a neighbour (contact, numerical slack)
 OPENING_STEPS = 80  # finger positions tried when reading the opening on a held object
 
 
@@ -267,7 +268,25 @@ class Screen:
         self._reach(state, i, step.robot, above, f"above the {target}", follow=[hand])
         state.poses[obj] = goal
         self._reach(state, i, step.robot, hand, f"the placement on {target}", collide=False)
+        self._rests_free(state, i, obj)
         del state.held[step.robot]
+
+    def _rests_free(self, state: _State, i: int, obj: str) -> None:
+        """A placed object must not overlap anything where it is released (a block placed into
+        its neighbour or a box wall pops out: type 3, "did not stay where it was released",
+        every top-1 failure of Constrained Packing in session 12's 10-scene check). Objects
+        only: the hand opens and leaves."""
+        mirror = self.world.mirror
+        for name, pose in state.poses.items():
+            place_in_mirror(mirror, name, pose)
+        body = mirror.objects[obj].body
+        for name, other in mirror.objects.items():
+            if name == obj:
+                continue
+            points = pb.getClosestPoints(body, other.body, 0.0, physicsClientId=mirror.client)
+            depth = -min((p[8] for p in points), default=0.0)
+            if depth > PLACE_OVERLAP:
+                raise _Infeasible(i, f"{obj} released {depth * 100:.1f} cm into {name}")
 
     def _move(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
         if step.object is not None:

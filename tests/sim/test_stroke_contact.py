@@ -12,10 +12,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gfc.geometry import FloatArray
-from gfc.kinds import object_kind
+from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, object_kind
 from gfc.sim.bodies import recipe_for
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.tools import SHAFT_Y, TIP_BAR_HALF_X, TIP_BAR_Y, stroke_contact
+from gfc.sim.skills.tools import stroke_contact
 
 HOOK = object_kind("hook")
 BLOCK = object_kind("block").half_extents  # 2.5 cm half sides
@@ -32,10 +32,10 @@ def _pose(x: float, y: float, yaw: float = 0.0) -> FloatArray:
 
 def test_the_constants_describe_the_hook_the_simulator_builds() -> None:
     shaft, tip = recipe_for("hook").parts
-    assert tip.half[0] == pytest.approx(TIP_BAR_HALF_X)
+    assert tip.half[0] == pytest.approx(HOOK_TIP_BAR_HALF_X)
     assert tip.centre[0] == pytest.approx(TIP_X)
-    assert (tip.centre[1] - tip.half[1], tip.centre[1] + tip.half[1]) == pytest.approx(TIP_BAR_Y)
-    assert (shaft.centre[1] - shaft.half[1], shaft.centre[1] + shaft.half[1]) == pytest.approx(SHAFT_Y)
+    assert (tip.centre[1] - tip.half[1], tip.centre[1] + tip.half[1]) == pytest.approx(HOOK_TIP_BAR_Y)
+    assert (shaft.centre[1] - shaft.half[1], shaft.centre[1] + shaft.half[1]) == pytest.approx(HOOK_SHAFT_Y)
 
 
 def test_a_pull_closes_its_gap_and_carries_the_block_the_rest() -> None:
@@ -60,7 +60,7 @@ def test_a_turned_block_reaches_further_along_the_stroke() -> None:
     """At 45 degrees a 5 cm block reaches 2.5 * sqrt(2) cm from its centre: the gap shrinks."""
     block = _pose(TIP_X - 0.06, 0.02, math.pi / 4)
     contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.2, sign=-1.0)
-    assert contact.gap == pytest.approx(0.06 - TIP_BAR_HALF_X - 0.025 * math.sqrt(2))
+    assert contact.gap == pytest.approx(0.06 - HOOK_TIP_BAR_HALF_X - 0.025 * math.sqrt(2))
 
 
 @pytest.mark.parametrize(
@@ -97,7 +97,7 @@ def test_contact_depends_only_on_where_the_block_is_relative_to_the_tool(
     """Moving tool and block together anywhere on the table changes neither the gap nor the
     travel, and the travel is what the stroke has left once the gap is closed."""
     sign = -1.0 if pull else 1.0
-    face = TIP_X - TIP_BAR_HALF_X if pull else TIP_X + TIP_BAR_HALF_X
+    face = TIP_X - HOOK_TIP_BAR_HALF_X if pull else TIP_X + HOOK_TIP_BAR_HALF_X
     centre = face - gap - BLOCK[0] if pull else face + gap + BLOCK[0]
     block_in_tool = _pose(centre, side)
     world_from_tool = _pose(x, y, yaw)

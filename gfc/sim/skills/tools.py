@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gfc.geometry import FloatArray, approach_frame, invert, pose7_to_matrix
-from gfc.kinds import ObjectKind, object_kind
+from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, ObjectKind, object_kind
 from gfc.plan.schema import Step
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, straight, translated
@@ -35,13 +35,6 @@ HOVER = 0.08  # m above the working height where the tool is lowered from
 MAX_STROKE = 0.3
 RETREAT_FALLBACK = 0.03  # m: the lift tried when the full one cannot be tracked
 MIN_TARGET_MOTION = 0.01  # m the target must move for the stroke to count
-# The hook's tip bar (gfc/sim/bodies.py ``_hook``), in the hook's frame: it spans x within
-# TIP_BAR_HALF_X of the tip frame, and y from TIP_BAR_Y[0] to TIP_BAR_Y[1]; the shaft runs along
-# x over SHAFT_Y. A pull drags the target with the bar's inner face (-x); a push pushes it with
-# the hook's far end (+x), bar and shaft together.
-TIP_BAR_HALF_X = 0.015
-TIP_BAR_Y = (-0.03, 0.06)
-SHAFT_Y = (-0.06, -0.03)
 CONTACT_SLACK = 0.003  # m: what a contact prediction may be off by
 
 
@@ -126,12 +119,12 @@ def stroke_contact(
     half_x, half_y = c * ex + s * ey, s * ex + c * ey  # the target's extent along the tool's axes
     tip_x = float(tool_kind.frame("tip")[0])
     if sign > 0:
-        face, lateral = tip_x + TIP_BAR_HALF_X, (SHAFT_Y[0], TIP_BAR_Y[1])
+        face, lateral = tip_x + HOOK_TIP_BAR_HALF_X, (HOOK_SHAFT_Y[0], HOOK_TIP_BAR_Y[1])
         gap = (bx - half_x) - face
     else:
-        face, lateral = tip_x - TIP_BAR_HALF_X, TIP_BAR_Y
+        face, lateral = tip_x - HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y
         gap = face - (bx + half_x)
-        if by - half_y < SHAFT_Y[1] and bx - half_x < tip_x + TIP_BAR_HALF_X:
+        if by - half_y < HOOK_SHAFT_Y[1] and bx - half_x < tip_x + HOOK_TIP_BAR_HALF_X:
             raise SkillFailure(
                 FailureType.PATH, f"the shaft would land on the target ({by * 100:.1f} cm to its side)"
             )

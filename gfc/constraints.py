@@ -159,6 +159,33 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     return torch.cat([after[..., :2] - slid, outside.unsqueeze(-1), torch.relu(-gap).unsqueeze(-1)], dim=-1)
 
 
+def _footprint_axes(pose: torch.Tensor) -> torch.Tensor:
+    """The object's x and y axes projected on the table, unit length. (B, 2, 2): [axis, xy]"""
+    axes = pose[..., :2, :2].transpose(-1, -2)  # rows: the x and y axes' world xy
+    norm: torch.Tensor = axes.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+    return axes / norm
+
+
+def apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """Two box footprints (half extents, turned with their objects) are ``clearance`` apart:
+    the separating-axis test on the four edge normals; the residual is how far the best axis
+    falls short of the clearance (0 once separated). (B, 1)"""
+    a, b = (_pose_of(n) for n in nodes)
+    axes_a, axes_b = _footprint_axes(a), _footprint_axes(b)  # (B, 2, 2) each
+    half_a = torch.tensor(params["object_half_extents"][:2], dtype=a.dtype)
+    half_b = torch.tensor(params["target_half_extents"][:2], dtype=a.dtype)
+    normals = torch.cat([axes_a, axes_b], dim=-2)  # (B, 4, 2)
+    centre = (b[..., :2, 3] - a[..., :2, 3]).unsqueeze(-2)  # (B, 1, 2)
+
+    def radius(axes: torch.Tensor, half: torch.Tensor) -> torch.Tensor:
+        # extent of a footprint along each normal: sum_k half_k |axis_k . n|  -> (B, 4)
+        return (torch.einsum("bnd,bkd->bnk", normals, axes).abs() * half).sum(-1)
+
+    separation = (normals * centre).sum(-1).abs() - radius(axes_a, half_a) - radius(axes_b, half_b)
+    best = separation.max(dim=-1, keepdim=True).values  # (B, 1)
+    return torch.relu(float(params["clearance"]) - best)
+
+
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
     a, b = nodes
     diff = a[..., :3] - b[..., :3]
@@ -191,6 +218,7 @@ RESIDUALS: dict[str, Residual] = {
     "reach": reach,
     "grasps_apart": grasps_apart,
     "stroke": stroke,
+    "apart": apart,
     "near": near,
     "far": far,
 }

@@ -229,3 +229,47 @@ def test_grasps_apart_reads_the_grasp_positions_in_the_objects_frame() -> None:
     params = {"distance": 0.10}
     assert float(constraints.grasps_apart([giver, receiver], params)) == pytest.approx(0.06)
     assert float(constraints.grasps_apart([giver, _node(-0.09, 0.0, 0.018)], params)) == 0.0
+
+
+BLOCK_HALF = [0.025, 0.025, 0.025]
+
+
+def _apart(a: torch.Tensor, b: torch.Tensor, clearance: float = 0.005) -> float:
+    params = {"object_half_extents": BLOCK_HALF, "target_half_extents": BLOCK_HALF, "clearance": clearance}
+    r = constraints.apart([a, b], params)
+    assert r.shape == (1, 1)
+    return float(r)
+
+
+def test_apart_is_the_shortfall_of_the_footprints_gap() -> None:
+    """Two 5 cm blocks side by side: 6 cm between centres leaves 1 cm (clear of 5 mm); 5.2 cm
+    leaves 2 mm, 3 mm short; turned 45 degrees, 6 cm between centres overlaps by 0.4 mm (which
+    ``far`` on the centres at 5.5 cm let through)."""
+    origin = _node(0.0, 0.0, 0.0)
+    assert _apart(origin, _node(0.06, 0.0, 0.0)) == 0.0
+    assert _apart(origin, _node(0.052, 0.0, 0.0)) == pytest.approx(0.003)
+    overlap = 0.06 - 0.025 - 0.025 * math.sqrt(2)  # -0.4 mm
+    assert _apart(origin, _node(0.06, 0.0, 0.0, math.pi / 4)) == pytest.approx(0.005 - overlap)
+
+
+@given(
+    st.floats(-0.2, 0.2),
+    st.floats(-0.2, 0.2),
+    st.floats(-math.pi, math.pi),
+    st.floats(-math.pi, math.pi),
+)
+def test_apart_agrees_with_the_simulators_footprint_gap(
+    x: float, y: float, yaw_a: float, yaw_b: float
+) -> None:
+    """The planner's residual and the goal check (gfc.sim.goals.footprint_gap) measure the same
+    gap, for any placement and yaws; and the residual does not change when both blocks move
+    together."""
+    from gfc.sim.goals import footprint_gap
+
+    a, b = _node(0.1, -0.3, 0.0, yaw_a), _node(0.1 + x, -0.3 + y, 0.0, yaw_b)
+    gap = footprint_gap(pose9_to_matrix(a[0].numpy()), BLOCK_HALF, pose9_to_matrix(b[0].numpy()), BLOCK_HALF)
+    assert _apart(a, b) == pytest.approx(max(0.0, 0.005 - gap), abs=1e-9)
+    moved_a, moved_b = _node(-0.4, 0.2, 0.0, yaw_a + 1.0), _node(-0.4, 0.2, 0.0, yaw_b + 1.0)
+    turn = np.array([[math.cos(1.0), -math.sin(1.0)], [math.sin(1.0), math.cos(1.0)]])
+    moved_b[0, :2] += torch.tensor(turn @ np.array([x, y]))
+    assert _apart(moved_a, moved_b) == pytest.approx(_apart(a, b), abs=1e-9)

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from gfc.examples import load_example
 from gfc.plan import PlanError, compile_plan, load_plan, parse_plan
+from gfc.tasks import sample_task
 
 
 def example() -> dict[str, Any]:
@@ -403,7 +404,6 @@ def test_a_pour_asks_both_containers_upright_before_it() -> None:
     """The pour's precondition enters as implied upright factors on the versions of the mug and
     the cup that the pour reads (after the meeting moves), whatever the plan states."""
     from gfc.skills.signatures import POUR_UPRIGHT_DEG
-    from gfc.tasks import sample_task
 
     graph = compile_plan(sample_task("pour_cup", 0).plan)
     upright = [f for f in graph.spatial if f.type == "upright"]
@@ -424,7 +424,6 @@ def test_a_pour_is_a_factor_over_its_pre_nodes_and_a_strike_stays_terminal() -> 
     """A pour's learned pre-state model (docs/adr/0006) enters as a temporal factor over exactly
     the nodes the pour reads (the pourer, the mug and the cup after the meeting), with no action
     and no effect; a strike has no model and is listed as terminal."""
-    from gfc.tasks import sample_task
 
     graph = compile_plan(sample_task("pour_cup", 0).plan)
     pour = next(f for f in graph.temporal if f.skill == "pour")
@@ -469,3 +468,35 @@ def test_the_compiler_keeps_every_hand_in_reach_and_a_handovers_grasps_apart() -
     action_of_step = {a.step: a.id for a in graph.actions}
     apart = [f.actions for f in graph.spatial if f.type == "grasps_apart"]
     assert apart == [(action_of_step[0], action_of_step[1]), (action_of_step[1], action_of_step[2])]
+
+
+def test_a_stroke_ties_its_targets_effect_to_its_action() -> None:
+    """Each push and pull with the hook gets an implied ``stroke`` factor over the target before
+    and after it and the stroke's action, with the hook's geometry and the direction of travel."""
+    from gfc.kinds import HOOK_TIP_BAR_HALF_X
+
+    graph = compile_plan(sample_task("hook_reach_t3", 0).plan)
+    strokes = [f for f in graph.spatial if f.type == "stroke"]
+    pulls = [i for i, s in enumerate(sample_task("hook_reach_t3", 0).plan.skeleton) if s.skill == "pull"]
+    action_of_step = {a.step: a.id for a in graph.actions}
+    assert [f.actions for f in strokes] == [(action_of_step[i],) for i in pulls]
+    for f in strokes:
+        before, after = (graph.nodes[n] for n in f.nodes)
+        assert before.entity == after.entity and after.version == before.version + 1
+        assert f.source == "implied" and f.params["sign"] == -1.0
+        assert f.params["bar_half_x"] == HOOK_TIP_BAR_HALF_X
+    push = compile_plan(sample_task("rearrangement_push_t1", 0).plan)
+    assert [f.params["sign"] for f in push.spatial if f.type == "stroke"] == [1.0]
+
+
+def test_apart_needs_two_objects_and_reads_their_footprints() -> None:
+    plan = copy.deepcopy(sample_task("constrained_packing_t1", 0).plan.to_json_dict())
+    graph = compile_plan(plan)
+    apart = [f for f in graph.spatial if f.type == "apart"]
+    assert len(apart) == 6  # every pair of 4 blocks
+    assert apart[0].params["object_half_extents"] == [0.025, 0.025, 0.025]
+    plan["constraints"].append({"type": "apart", "object": "block_0", "target": "right"})
+    with pytest.raises(
+        PlanError, match=r"constraints\[6\]\.target: 'right' is a robot; apart is between objects"
+    ):
+        compile_plan(plan)

@@ -119,6 +119,12 @@ class _Factors:
     def far(self, object: str, target: str, distance: float, *, at: Ref = "end") -> PlanBuilder:
         return self.add("far", object=object, target=target, distance=distance, at=at)
 
+    def apart(
+        self, object: str, target: str, *, clearance: float | None = None, at: Ref = "end"
+    ) -> PlanBuilder:
+        """The two objects' footprints do not overlap and keep ``clearance`` (m) between them."""
+        return self.add("apart", object=object, target=target, clearance=clearance, at=at)
+
 
 class PlanBuilder:
     def __init__(self) -> None:

@@ -40,6 +40,7 @@ from gfc.plan.graph import (
 from gfc.plan.kinematics import links_of
 from gfc.plan.schema import (
     Aligned,
+    Apart,
     Far,
     FixedTransform,
     Inside,
@@ -111,10 +112,12 @@ POUR_UPRIGHT_SIN = math.sin(math.radians(POUR_UPRIGHT_DEG))  # the upright facto
 HANDOVER_CLEARANCE = 0.10  # m between the giver's and the receiver's grasp points
 HANDOVER_TOLERANCE = 0.01
 REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energy is 1/2
+APART_TOLERANCE = 0.005  # m of overlap at which an apart factor's energy is 1/2
 STROKE_TOLERANCE = 0.01  # m: a stroked block ends within millimetres of the contact model
 STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # the direction of travel along the tool's x axis
 
 _UNION_TAGS = {
+    "apart",
     "inside",
     "aligned",
     "fixed_transform",
@@ -675,6 +678,17 @@ class _Compiler:
             )
         elif isinstance(spec, Near | Far):
             params.update(distance=spec.distance, tolerance=0.01)
+        elif isinstance(spec, Apart):
+            robots = [(f, e) for f, e in entities if e not in self.objects]
+            if robots:
+                self.error(f"{loc}.{robots[0][0]}", f"{robots[0][1]!r} is a robot; apart is between objects")
+                return
+            params.update(
+                object_half_extents=list(OBJECT_KINDS[self.objects[spec.object].kind].half_extents),
+                target_half_extents=list(OBJECT_KINDS[self.objects[spec.target].kind].half_extents),
+                clearance=spec.clearance,
+                tolerance=APART_TOLERANCE,
+            )
 
         def nodes_at(snap: int) -> tuple[int, ...] | None:
             out = []

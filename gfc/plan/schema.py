@@ -179,10 +179,21 @@ class Far(_SpatialBase):
     distance: Annotated[float, Field(gt=0.0, le=5.0)]
 
 
+class Apart(_SpatialBase):
+    """The two objects' footprints (their boxes seen from above, turned as the objects are) do
+    not overlap and keep ``clearance`` between them: packing without collisions. Unlike ``far``
+    on their centres, it holds for any yaw (two 5 cm blocks 5.5 cm apart overlap when turned)."""
+
+    type: Literal["apart"]
+    object: Name
+    target: Name
+    clearance: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.005
+
+
 SpatialFactorSpec = Annotated[
-    Inside | Aligned | FixedTransform | Yaw | Near | Far, Field(discriminator="type")
+    Inside | Aligned | FixedTransform | Yaw | Near | Far | Apart, Field(discriminator="type")
 ]
-SPATIAL_TYPES = ("inside", "aligned", "fixed_transform", "yaw", "near", "far")
+SPATIAL_TYPES = ("inside", "aligned", "fixed_transform", "yaw", "near", "far", "apart")
 
 
 class Options(_Strict):

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from gfc.geometry import FloatArray, pose7_to_matrix
 from gfc.kinds import ObjectKind, object_kind
-from gfc.plan.schema import Aligned, Far, FixedTransform, Inside, Near, SpatialFactorSpec, Yaw
+from gfc.plan.schema import Aligned, Apart, Far, FixedTransform, Inside, Near, SpatialFactorSpec, Yaw
 from gfc.sim.panda import ee_matrix
 from gfc.sim.world import World, object_matrix, yaw_of
 
@@ -92,7 +92,38 @@ def check_predicate_on(poses: Poses, kinds: Kinds, spec: SpatialFactorSpec) -> t
             d <= spec.tolerance,
             f"fixed_transform({spec.object}, {spec.target}): {d * 100:.1f} cm off",
         )
+    if isinstance(spec, Apart):
+        kinds_of = [kinds(spec.object), kinds(spec.target)]
+        assert kinds_of[0] is not None and kinds_of[1] is not None
+        gap = footprint_gap(
+            poses(spec.object), kinds_of[0].half_extents, poses(spec.target), kinds_of[1].half_extents
+        )
+        return (
+            gap >= spec.clearance - APART_SLACK,
+            f"apart({spec.object}, {spec.target}): footprints {gap * 100:.1f} cm apart "
+            f"(want {spec.clearance * 100:.1f})",
+        )
     raise TypeError(f"unknown predicate {spec!r}")
+
+
+APART_SLACK = 0.002  # m: settled objects lean on each other by a millimetre or two
+
+
+def footprint_gap(
+    world_from_a: FloatArray, half_a: Sequence[float], world_from_b: FloatArray, half_b: Sequence[float]
+) -> float:
+    """The larger separation of two box footprints along their four edge normals (separating
+    axis test, negative when they overlap: then minus the smallest push that parts them)."""
+    axes_a, axes_b = world_from_a[:2, :2].T, world_from_b[:2, :2].T
+    normals = [n / max(float(np.linalg.norm(n)), 1e-9) for n in (*axes_a, *axes_b)]
+    centre = world_from_b[:2, 3] - world_from_a[:2, 3]
+
+    def radius(axes: FloatArray, half: Sequence[float], n: FloatArray) -> float:
+        return sum(float(h) * abs(float(ax @ n)) for ax, h in zip(axes, half[:2], strict=True))
+
+    return max(
+        abs(float(centre @ n)) - radius(axes_a, half_a, n) - radius(axes_b, half_b, n) for n in normals
+    )
 
 
 def goal_satisfied(world: World, goal: list[SpatialFactorSpec]) -> tuple[bool, list[str]]:

@@ -6,9 +6,9 @@
 - ``constrained_packing_t3``: 6 blocks (12 steps), two columns of three, 1 cm between neighbours.
 
 Goal: every block ``inside`` the box (margin 5 mm: the planner's energy then keeps every corner of
-a block 5 mm inside the walls, which the three-row columns need). No new constraint type: the
-no-collision requirement is ``far`` (centres at least 5.5 cm apart) between every pair of blocks
-at the end state, in the plan's ``constraints`` (5 cm blocks side by side then cannot overlap).
+a block 5 mm inside the walls, which the three-row columns need). The
+no-collision requirement is ``apart`` (footprints at least 5 mm apart, whatever their yaw) between
+every pair of blocks at the end state, in the plan's ``constraints``.
 The paper's packing tasks have 4-8 steps; we follow the block counts instead, so T2 and T3 are
 longer (10 and 12 steps).
 """
@@ -26,10 +26,10 @@ from gfc.tasks.base import TABLE_Z, Sampler, TaskInstance, pose7, robots_json
 from gfc.tasks.single_arm import (
     BOX_ROWS_2,
     BOX_ROWS_3,
+    apart_pairs,
     block_grasp,
     block_in_box,
     box_slots,
-    far_pairs,
     pick,
     place,
 )
@@ -80,7 +80,7 @@ def sample_variant(name: str, seed: int) -> TaskInstance:
         {
             "scene": {"robots": robots_json(), "objects": objects},
             "skeleton": skeleton,
-            "constraints": far_pairs(blocks),
+            "constraints": apart_pairs(blocks),
             "goal": [
                 {"type": "inside", "object": b, "target": "box", "margin": INSIDE_MARGIN} for b in blocks
             ],

@@ -8,14 +8,16 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+import torch
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from gfc.geometry import FloatArray
+from gfc import constraints
+from gfc.geometry import FloatArray, matrix_to_pose9
 from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, object_kind
 from gfc.sim.bodies import recipe_for
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.tools import stroke_contact
+from gfc.sim.skills.tools import stroke_contact, stroke_poses
 
 HOOK = object_kind("hook")
 BLOCK = object_kind("block").half_extents  # 2.5 cm half sides
@@ -104,3 +106,54 @@ def test_contact_depends_only_on_where_the_block_is_relative_to_the_tool(
     contact = stroke_contact(HOOK, world_from_tool, BLOCK, world_from_tool @ block_in_tool, gap + extra, sign)
     assert contact.gap == pytest.approx(gap, abs=1e-9)
     assert contact.travel == pytest.approx(extra, abs=1e-9)
+
+
+@given(
+    bx=st.floats(0.55, 0.85),
+    by=st.floats(-0.5, 0.0),
+    block_yaw=st.floats(-0.3, 0.3),
+    x=st.floats(0.04, 0.08),
+    y=st.floats(0.0, 0.05),
+    r=st.floats(0.05, 0.3),
+    theta=st.floats(-0.4, 0.4),
+    pull=st.booleans(),
+)
+def test_the_planners_stroke_factor_says_what_the_screens_contact_model_says(
+    bx: float, by: float, block_yaw: float, x: float, y: float, r: float, theta: float, pull: bool
+) -> None:
+    """Where the contact model slides the block (gfc.sim.skills.tools, used by the screen) is
+    where the planner's implied ``stroke`` factor wants the effect node: zero residual there,
+    and the residual grows by exactly the displacement elsewhere."""
+    sign = -1.0 if pull else 1.0
+    x = x if pull else -x  # the tip beyond the block for a pull, short of it for a push
+    base = np.array([0.1, -0.35, 0.0])
+    world_from_base = _pose(*base[:2])
+    block = _pose(bx, by, block_yaw)
+    action = np.array([x, y, r, theta])
+    poses = stroke_poses(world_from_base, block, HOOK, np.eye(4), action, sign)
+    try:
+        contact = stroke_contact(HOOK, poses.world_from_tool, BLOCK, block, r, sign)
+    except SkillFailure:
+        assume(False)
+        return
+    after = contact.moved(block, poses.direction)
+    params = {
+        "sign": sign,
+        "base": list(base),
+        "tip": list(HOOK.frame("tip")[:3]),
+        "bar_half_x": HOOK_TIP_BAR_HALF_X,
+        "half_extents": list(BLOCK),
+        "lateral": list(HOOK_TIP_BAR_Y) if pull else [HOOK_SHAFT_Y[0], HOOK_TIP_BAR_Y[1]],
+    }
+
+    def residual(end: FloatArray) -> np.ndarray:
+        nodes = [torch.tensor(matrix_to_pose9(m), dtype=torch.float64).unsqueeze(0) for m in (block, end)]
+        out = constraints.stroke([*nodes, torch.tensor(action, dtype=torch.float64).unsqueeze(0)], params)
+        assert out.shape == (1, 4)
+        return out[0].numpy()
+
+    # The screen lets a tool start up to CONTACT_SLACK inside the block; the factor wants none.
+    np.testing.assert_allclose(residual(after), [0.0, 0.0, 0.0, max(0.0, -contact.gap)], atol=1e-9)
+    off = after.copy()
+    off[:2, 3] += [0.03, -0.04]
+    np.testing.assert_allclose(residual(off)[:2], [0.03, -0.04], atol=1e-9)

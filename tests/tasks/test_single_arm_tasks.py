@@ -11,16 +11,19 @@ import math
 import numpy as np
 import pytest
 
-from gfc.geometry import pose7_to_matrix
+from gfc.geometry import pose7_to_matrix, pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.plan.compiler import compile_plan
-from gfc.plan.schema import Far, Inside, PlanRequest
+from gfc.plan.schema import Apart, Inside, PlanRequest
 from gfc.sim.execute import execute_plan
+from gfc.sim.goals import APART_SLACK, footprint_gap
 from gfc.sim.outcome import FailureType, PlanOutcome
 from gfc.skills.signatures import default_model_key
 from gfc.tasks import ALL_TASKS, SINGLE_ARM, TASKS, VARIANTS, TaskInstance, sample_task
 from gfc.tasks.base import RIGHT_BASE
-from gfc.tasks.single_arm import MIN_BLOCK_SEPARATION, block_grasp
+from gfc.tasks.single_arm import BLOCK_CLEARANCE, block_grasp
+
+BLOCK = object_kind("block").half_extents
 
 STEPS = {
     "hook_reach_t1": 4,
@@ -106,13 +109,14 @@ def test_packing_keeps_every_pair_apart_and_inside(task: str) -> None:
     instance = sample_task(task, 0)
     blocks = [o.name for o in instance.plan.scene.objects if o.kind == "block"]
     assert len(blocks) == STEPS[task] // 2
-    far = {(c.object, c.target) for c in instance.plan.constraints if isinstance(c, Far)}
-    assert far == set(itertools.combinations(blocks, 2))
+    apart = {(c.object, c.target) for c in instance.plan.constraints if isinstance(c, Apart)}
+    assert apart == set(itertools.combinations(blocks, 2))
     assert {g.object for g in instance.plan.goal if isinstance(g, Inside)} == set(blocks)
     # The reference slots (place actions, box frame) are far enough apart and inside the walls.
-    slots = [a[:2] for a in instance.reference_actions[1::2] if a is not None]
-    for a, b in itertools.combinations(slots, 2):
-        assert float(np.linalg.norm(a - b)) >= MIN_BLOCK_SEPARATION
+    places = [pose9_to_matrix(a) for a in instance.reference_actions[1::2] if a is not None]
+    slots = [p[:2, 3] for p in places]
+    for a, b in itertools.combinations(places, 2):
+        assert footprint_gap(a, BLOCK, b, BLOCK) >= BLOCK_CLEARANCE
     inner = object_kind("box").inner_half_extents
     assert inner is not None
     half = object_kind("block").half_extents[0]
@@ -149,8 +153,8 @@ def _check_constrained_packing(instance: TaskInstance, outcome: PlanOutcome) -> 
     final = outcome.steps[-1].poses
     blocks = [o.name for o in instance.plan.scene.objects if o.kind == "block"]
     for a, b in itertools.combinations(blocks, 2):
-        distance = float(np.linalg.norm(np.asarray(final[a][:3]) - np.asarray(final[b][:3])))
-        assert distance >= MIN_BLOCK_SEPARATION, (a, b, distance)
+        gap = footprint_gap(pose7_to_matrix(final[a]), BLOCK, pose7_to_matrix(final[b]), BLOCK)
+        assert gap >= BLOCK_CLEARANCE - APART_SLACK, (a, b, gap)
     for block in blocks:  # upright, not leaning on a wall or a neighbour
         z_axis = pose7_to_matrix(final[block])[:3, 2]
         assert math.degrees(math.acos(min(1.0, float(z_axis[2])))) < 5.0, block

@@ -57,6 +57,13 @@ def inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     return torch.cat(out, dim=-1)
 
 
+def placed_inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """``inside`` for a pose given in the container's own frame (a place action). (B, 12)"""
+    (pose,) = nodes
+    frame = torch.tensor([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], dtype=pose.dtype)
+    return inside([pose, frame.expand(pose.shape[0], 9)], params)
+
+
 def aligned(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """The object's frame point lies over the target's (xy), at ``height`` above it if given; with
     ``offset`` > 0, at that horizontal distance from it (the residual is then the distance's
@@ -219,6 +226,7 @@ RESIDUALS: dict[str, Residual] = {
     "grasps_apart": grasps_apart,
     "stroke": stroke,
     "apart": apart,
+    "placed_inside": placed_inside,
     "near": near,
     "far": far,
 }

@@ -500,3 +500,54 @@ def test_apart_needs_two_objects_and_reads_their_footprints() -> None:
         PlanError, match=r"constraints\[6\]\.target: 'right' is a robot; apart is between objects"
     ):
         compile_plan(plan)
+
+
+def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
+    """Objects placed on one target and left there: each later place action keeps clear of
+    theirs, and a block placed into a box is released inside its walls (both factors on the
+    place actions, poses in the target's frame). A hammer, too long to fit the box at any yaw,
+    gets no ``placed_inside``; an object picked up again stops counting."""
+    graph = compile_plan(sample_task("constrained_packing_t1", 0).plan)
+    places = [a.id for a in graph.actions if graph.temporal[a.step].skill == "place"]
+    implied = [(f.type, f.actions) for f in graph.spatial if f.source == "implied" and f.type != "reach"]
+    expected = []
+    for k, place in enumerate(places):
+        expected.append(("placed_inside", (place,)))
+        expected += [("apart", (earlier, place)) for earlier in places[:k]]
+    assert implied == expected
+    assert not [
+        f for f in compile_plan(sample_task("hammer_place", 0).plan).spatial if f.type == "placed_inside"
+    ]
+    plan = sample_task("constrained_packing_t1", 0).plan.to_json_dict()
+    plan["skeleton"][2:2] = [
+        {"skill": "pick", "robot": "right", "object": "block_0"},
+        {"skill": "place", "robot": "right", "object": "block_0", "target": "box"},
+    ]
+    graph = compile_plan(plan)
+    place_actions = [a.id for a in graph.actions if graph.temporal[a.step].skill == "place"]
+    pairs = [f.actions for f in graph.spatial if f.type == "apart" and f.source == "implied"]
+    assert (place_actions[0], place_actions[1]) not in pairs  # block_0 was picked up again
+    assert (place_actions[1], place_actions[2]) in pairs
+
+
+@pytest.mark.parametrize(
+    "task", ["constrained_packing_t3", "hook_reach_t3", "hammer_nail_v2", "hammer_place"]
+)
+def test_the_reference_actions_satisfy_the_implied_factors_on_actions(task: str) -> None:
+    """The hand-written solutions (which succeed in the simulator) are inside every implied
+    factor that reads actions only: the compiler never asks against a working plan."""
+    import torch
+
+    from gfc.constraints import scaled_residual
+
+    instance = sample_task(task, 0)
+    graph = compile_plan(instance.plan)
+    value = {a.id: instance.reference_actions[a.step] for a in graph.actions}
+    checked = 0
+    for f in graph.spatial:
+        if f.nodes or not f.actions:
+            continue
+        inputs = [torch.tensor(value[a], dtype=torch.float64).unsqueeze(0) for a in f.actions]
+        assert float(scaled_residual(f.type, inputs, f.params).abs().max()) <= 1.0, (f.type, f.actions)
+        checked += 1
+    assert checked

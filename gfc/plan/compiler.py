@@ -113,6 +113,7 @@ HANDOVER_CLEARANCE = 0.10  # m between the giver's and the receiver's grasp poin
 HANDOVER_TOLERANCE = 0.01
 REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energy is 1/2
 APART_TOLERANCE = 0.005  # m of overlap at which an apart factor's energy is 1/2
+PLACED_CLEARANCE = 0.006  # m between objects placed on one target, and from its walls (implied factors)
 STROKE_TOLERANCE = 0.01  # m: a stroked block ends within millimetres of the contact model
 STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # the direction of travel along the tool's x axis
 
@@ -159,6 +160,7 @@ class _Compiler:
         self.terminal: list[tuple[int, str]] = []  # action-less steps without a learned factor
         self.robots = {r.name: r for r in plan.scene.robots}
         self.grasp_action: dict[str, int] = {}  # robot -> the action of the grasp it holds by
+        self.resting: dict[str, list[tuple[str, int]]] = {}  # target -> (object, place action) left on it
         self.objects = {o.name: o for o in plan.scene.objects}
         self.state = _State()
         self.snapshots: list[dict[str, int]] = []  # entity -> node id after each stage
@@ -455,6 +457,7 @@ class _Compiler:
                 self.add_hands_apart(self.grasp_action[step.from_], action_id)
             if spec.grasps and action_id is not None:
                 self.grasp_action[step.robot] = action_id
+            self.track_resting(step, spec, action_id)
             self.apply_holding(step, spec)
         self.add_closed_chain(valid, before, after)
         stage_index = len(self.snapshots)
@@ -539,6 +542,56 @@ class _Compiler:
         }
         nodes = (before[target], after[target])
         self.spatial.append(SpatialFactor("stroke", "implied", len(self.spatial), nodes, params, (action,)))
+
+    def track_resting(self, step: Step, spec: SkillSpec, action: int | None) -> None:
+        """Objects placed on one target and left there: a later placement on the same target
+        must not overlap them (``apart`` on the two place actions, both poses in the target's
+        frame, so the factor binds what is executed; the plan's own constraints bind the nodes,
+        which the actions follow only loosely). Without it a packing's place actions released
+        blocks into their neighbours even where the end-state nodes kept apart."""
+        for role in spec.writes:
+            entity = self.role_entity(step, role)
+            for target, resting in list(self.resting.items()):
+                if entity == target:
+                    del self.resting[target]
+                else:
+                    self.resting[target] = [(o, a) for o, a in resting if o != entity]
+        if spec.name != "place" or action is None or step.object is None or step.target is None:
+            return
+        if step.target not in self.objects:
+            return
+        self.add_placed_inside(step.object, step.target, action)
+        for other, other_action in self.resting.get(step.target, []):
+            params = {
+                "weight": 1.0,
+                "tolerance": APART_TOLERANCE,
+                "clearance": PLACED_CLEARANCE,
+                "object_half_extents": list(OBJECT_KINDS[self.objects[other].kind].half_extents),
+                "target_half_extents": list(OBJECT_KINDS[self.objects[step.object].kind].half_extents),
+            }
+            actions = (other_action, action)
+            self.spatial.append(SpatialFactor("apart", "implied", len(self.spatial), (), params, actions))
+        self.resting.setdefault(step.target, []).append((step.object, action))
+
+    def add_placed_inside(self, obj: str, container: str, action: int) -> None:
+        """An object placed into a container that it fits in whatever its yaw (its footprint's
+        diagonal within the opening) is released with its footprint inside the walls: ``inside``
+        on the place action (a pose in the container's frame). Released across a wall, a block
+        popped out (type 3); the goal's ``inside`` binds the end-state node, not the action."""
+        kind = OBJECT_KINDS[self.objects[container].kind]
+        hx, hy, _ = OBJECT_KINDS[self.objects[obj].kind].half_extents
+        if kind.inner_half_extents is None or math.hypot(hx, hy) > min(kind.inner_half_extents[:2]):
+            return
+        params = {
+            "weight": 1.0,
+            "tolerance": APART_TOLERANCE,
+            "object_kind": self.objects[obj].kind,
+            "inner_half_extents": list(kind.inner_half_extents),
+            "margin": PLACED_CLEARANCE,
+        }
+        self.spatial.append(
+            SpatialFactor("placed_inside", "implied", len(self.spatial), (), params, (action,))
+        )
 
     def add_hands_apart(self, giver_grasp: int, receiver_grasp: int) -> None:
         """At a hand-over both hands hold the object at once, so the receiver's grasp must

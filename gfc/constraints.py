@@ -57,6 +57,21 @@ def inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     return torch.cat(out, dim=-1)
 
 
+def released_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """A place action (pose9 of an upright object in the target's frame, both boxes with their
+    origin at the bottom centre) releases the object outside the target's box: ``clearance``
+    apart in the table plane, or on its top. The residual is how far the better of the two
+    falls short. (B, 1)"""
+    (pose,) = nodes
+    frame = torch.tensor([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], dtype=pose.dtype)
+    beside = footprint_separation(
+        pose, frame.expand(pose.shape[0], 9), params["object_half_extents"], params["target_half_extents"]
+    )
+    above = pose[..., 2:3] - 2.0 * float(params["target_half_extents"][2])  # (B, 1)
+    # Beside it: ``clearance`` apart; on top: resting on it is enough.
+    return torch.relu(-torch.maximum(beside - float(params["clearance"]), above))
+
+
 def placed_inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """``inside`` for a pose given in the container's own frame (a place action). (B, 12)"""
     (pose,) = nodes
@@ -126,6 +141,14 @@ def reach(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor
     return torch.relu(distance - params["reach"])
 
 
+def placed_reach(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """``reach`` for the point where a place action (a pose9 in the target's frame) puts the
+    object; inputs (target node, action). (B, 1)"""
+    target, action = nodes
+    point = transform_points(_pose_of(target), action[..., :3])  # (B, 3)
+    return reach([point], params)
+
+
 def grasps_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """Two grasp actions on one object (pose9 in its frame) at least ``distance`` apart: room
     for both hands at a hand-over. (B, 1)"""
@@ -173,24 +196,33 @@ def _footprint_axes(pose: torch.Tensor) -> torch.Tensor:
     return axes / norm
 
 
-def apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
-    """Two box footprints (half extents, turned with their objects) are ``clearance`` apart:
-    the separating-axis test on the four edge normals; the residual is how far the best axis
-    falls short of the clearance (0 once separated). (B, 1)"""
-    a, b = (_pose_of(n) for n in nodes)
-    axes_a, axes_b = _footprint_axes(a), _footprint_axes(b)  # (B, 2, 2) each
-    half_a = torch.tensor(params["object_half_extents"][:2], dtype=a.dtype)
-    half_b = torch.tensor(params["target_half_extents"][:2], dtype=a.dtype)
+def footprint_separation(
+    a: torch.Tensor, b: torch.Tensor, half_a: Sequence[float], half_b: Sequence[float]
+) -> torch.Tensor:
+    """How far apart two box footprints are (pose9 nodes, half extents; turned as the poses
+    are): the separating-axis test on the four edge normals, the best axis's gap, negative when
+    they overlap. (B, 1)"""
+    pose_a, pose_b = _pose_of(a), _pose_of(b)
+    axes_a, axes_b = _footprint_axes(pose_a), _footprint_axes(pose_b)  # (B, 2, 2) each
+    extent_a = torch.tensor(list(half_a[:2]), dtype=a.dtype)
+    extent_b = torch.tensor(list(half_b[:2]), dtype=a.dtype)
     normals = torch.cat([axes_a, axes_b], dim=-2)  # (B, 4, 2)
-    centre = (b[..., :2, 3] - a[..., :2, 3]).unsqueeze(-2)  # (B, 1, 2)
+    centre = (pose_b[..., :2, 3] - pose_a[..., :2, 3]).unsqueeze(-2)  # (B, 1, 2)
 
     def radius(axes: torch.Tensor, half: torch.Tensor) -> torch.Tensor:
         # extent of a footprint along each normal: sum_k half_k |axis_k . n|  -> (B, 4)
         return (torch.einsum("bnd,bkd->bnk", normals, axes).abs() * half).sum(-1)
 
-    separation = (normals * centre).sum(-1).abs() - radius(axes_a, half_a) - radius(axes_b, half_b)
-    best = separation.max(dim=-1, keepdim=True).values  # (B, 1)
-    return torch.relu(float(params["clearance"]) - best)
+    separation = (normals * centre).sum(-1).abs() - radius(axes_a, extent_a) - radius(axes_b, extent_b)
+    return separation.max(dim=-1, keepdim=True).values
+
+
+def apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """Two box footprints are ``clearance`` apart: the residual is how far their separation
+    (``footprint_separation``) falls short of it (0 once clear). (B, 1)"""
+    a, b = nodes
+    gap = footprint_separation(a, b, params["object_half_extents"], params["target_half_extents"])
+    return torch.relu(float(params["clearance"]) - gap)
 
 
 def _distance(nodes: Sequence[torch.Tensor]) -> torch.Tensor:
@@ -227,6 +259,8 @@ RESIDUALS: dict[str, Residual] = {
     "stroke": stroke,
     "apart": apart,
     "placed_inside": placed_inside,
+    "placed_reach": placed_reach,
+    "released_clear": released_clear,
     "near": near,
     "far": far,
 }

@@ -53,6 +53,9 @@ class ObjectKind:
     frames: dict[str, tuple[float, ...]] = field(default_factory=dict)  # name -> pose7
     inner_half_extents: tuple[float, float, float] | None = None  # open region of a container
     graspable: bool = True
+    # Objects placed by it are released outside its bounding box (beside it, or on top): it
+    # has no opening, and a hand cannot reach in under it (the rack's bar).
+    release_outside: bool = False
 
     @property
     def is_container(self) -> bool:
@@ -139,6 +142,7 @@ OBJECT_KINDS: dict[str, ObjectKind] = _kinds(
         "a table-mounted bar on two legs; objects can be pushed underneath",
         half_extents=(0.05, 0.25, 0.06),
         graspable=False,
+        release_outside=True,
     ),
 )
 

@@ -273,3 +273,29 @@ def test_apart_agrees_with_the_simulators_footprint_gap(
     turn = np.array([[math.cos(1.0), -math.sin(1.0)], [math.sin(1.0), math.cos(1.0)]])
     moved_b[0, :2] += torch.tensor(turn @ np.array([x, y]))
     assert _apart(moved_a, moved_b) == pytest.approx(_apart(a, b), abs=1e-9)
+
+
+def test_released_clear_wants_a_placement_beside_the_rack_or_on_its_top() -> None:
+    """A 5 cm block placed 13 cm in front of the rack's centre (its bar 10 cm wide, 12 cm high)
+    is clear; 6 cm in front it would be released 1.5 cm into the bar's footprint (plus the 6 mm
+    clearance); a hook laid on the bar's top is clear, 2 cm lower it is not."""
+    rack = [0.05, 0.25, 0.06]
+    params = {"clearance": 0.006, "object_half_extents": BLOCK_HALF, "target_half_extents": rack}
+
+    def residual(x: float, z: float, half: list[float] = BLOCK_HALF) -> float:
+        return float(constraints.released_clear([_node(x, 0.0, z)], {**params, "object_half_extents": half}))
+
+    assert residual(-0.13, 0.003) == 0.0
+    assert residual(-0.06, 0.003) == pytest.approx(0.015 + 0.006)
+    hook = [0.2, 0.06, 0.015]
+    assert residual(0.0, 0.123, hook) == 0.0
+    assert residual(0.0, 0.103, hook) == pytest.approx(0.017)
+
+
+def test_placed_reach_carries_the_place_action_into_the_world_by_the_target() -> None:
+    """A release 0.1 m along the target's x, the target turned 90 degrees at (0.5, 0, 0): the
+    point is (0.5, 0.1, 0), 0.51 m from a shoulder at the origin: 0.06 beyond a 0.45 m reach."""
+    target = _node(0.5, 0.0, 0.0, math.pi / 2)
+    action = _node(0.1, 0.0, 0.0)
+    r = constraints.placed_reach([target, action], {"shoulder": [0.0, 0.0, 0.0], "reach": 0.45})
+    assert float(r) == pytest.approx(math.hypot(0.5, 0.1) - 0.45)

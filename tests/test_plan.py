@@ -52,12 +52,13 @@ def test_example_compiles_to_expected_node_versions() -> None:
         {"type": "reach", "source": "implied", "index": 3, "nodes": ["left@3"]},
         {"type": "grasps_apart", "source": "implied", "index": 4, "nodes": [], "actions_of_steps": [0, 2]},
         {"type": "reach", "source": "implied", "index": 5, "nodes": ["right@2"]},
+        {"type": "placed_reach", "source": "implied", "index": 6, "nodes": ["box@0"], "actions_of_steps": [3]},
         {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]},
     ]  # fmt: skip
     # With the kinematic links on, the skills imply two more factors: the hammer stays put in the
     # moving hand; the place's action is where the hammer rests in the box.
     linked = compile_plan({**example(), "options": {"kinematics": True}}).summary()
-    assert [f for f in linked["spatial_factors"] if f["type"] not in ("reach", "grasps_apart")] == [
+    assert [f for f in linked["spatial_factors"] if f["type"] not in ("reach", "grasps_apart", "placed_reach")] == [
         {"type": "fixed_transform", "source": "implied", "index": 2, "nodes": ["left@1", "hammer@1", "left@2", "hammer@2"]},
         {"type": "relative_pose", "source": "implied", "index": 7, "nodes": ["box@0", "hammer@4"], "actions_of_steps": [3]},
         {"type": "inside", "source": "goal", "index": 0, "nodes": ["hammer@4", "box@0"]},
@@ -152,7 +153,7 @@ def test_a_place_links_its_action_to_where_the_object_rests() -> None:
         "options": {"kinematics": True},
     }
     graph = compile_plan(plan)
-    (link,) = [f for f in graph.spatial if f.source == "implied" and f.type != "reach"]
+    (link,) = [f for f in graph.spatial if f.source == "implied" and f.type == "relative_pose"]
     place_action = next(a for a in graph.actions if a.step == 1)
     assert link.type == "relative_pose"
     assert [graph.nodes[n].label for n in link.nodes] == ["box@0", "cube@2"]
@@ -492,7 +493,7 @@ def test_a_stroke_ties_its_targets_effect_to_its_action() -> None:
 def test_apart_needs_two_objects_and_reads_their_footprints() -> None:
     plan = copy.deepcopy(sample_task("constrained_packing_t1", 0).plan.to_json_dict())
     graph = compile_plan(plan)
-    apart = [f for f in graph.spatial if f.type == "apart"]
+    apart = [f for f in graph.spatial if f.type == "apart" and f.source == "constraints"]
     assert len(apart) == 6  # every pair of 4 blocks
     assert apart[0].params["object_half_extents"] == [0.025, 0.025, 0.025]
     plan["constraints"].append({"type": "apart", "object": "block_0", "target": "right"})
@@ -512,7 +513,7 @@ def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
     implied = [(f.type, f.actions) for f in graph.spatial if f.source == "implied" and f.type != "reach"]
     expected = []
     for k, place in enumerate(places):
-        expected.append(("placed_inside", (place,)))
+        expected += [("placed_inside", (place,)), ("placed_reach", (place,))]
         expected += [("apart", (earlier, place)) for earlier in places[:k]]
     assert implied == expected
     assert not [
@@ -531,11 +532,13 @@ def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
 
 
 @pytest.mark.parametrize(
-    "task", ["constrained_packing_t3", "hook_reach_t3", "hammer_nail_v2", "hammer_place"]
+    "task",
+    ["constrained_packing_t3", "hook_reach_t3", "rearrangement_push_t3", "hammer_nail_v2", "hammer_place"],
 )
 def test_the_reference_actions_satisfy_the_implied_factors_on_actions(task: str) -> None:
     """The hand-written solutions (which succeed in the simulator) are inside every implied
-    factor that reads actions only: the compiler never asks against a working plan."""
+    factor that reads actions (and known nodes only): the compiler never asks against a
+    working plan."""
     import torch
 
     from gfc.constraints import scaled_residual
@@ -545,9 +548,20 @@ def test_the_reference_actions_satisfy_the_implied_factors_on_actions(task: str)
     value = {a.id: instance.reference_actions[a.step] for a in graph.actions}
     checked = 0
     for f in graph.spatial:
-        if f.nodes or not f.actions:
+        if not f.actions or any(not graph.nodes[n].known for n in f.nodes):
             continue
-        inputs = [torch.tensor(value[a], dtype=torch.float64).unsqueeze(0) for a in f.actions]
+        known = [graph.nodes[n].value for n in f.nodes]
+        inputs = [torch.tensor(v[:9], dtype=torch.float64).unsqueeze(0) for v in known if v is not None]
+        inputs += [torch.tensor(value[a], dtype=torch.float64).unsqueeze(0) for a in f.actions]
         assert float(scaled_residual(f.type, inputs, f.params).abs().max()) <= 1.0, (f.type, f.actions)
         checked += 1
     assert checked
+
+
+def test_a_placement_by_the_rack_is_released_clear_of_it_and_within_reach() -> None:
+    graph = compile_plan(sample_task("rearrangement_push_t1", 0).plan)
+    place = next(a.id for a in graph.actions if graph.temporal[a.step].skill == "place")
+    by_type = {f.type: f for f in graph.spatial if f.source == "implied" and f.actions == (place,)}
+    assert set(by_type) == {"released_clear", "placed_reach"}
+    assert graph.nodes[by_type["placed_reach"].nodes[0]].entity == "rack"
+    assert by_type["released_clear"].params["target_half_extents"] == [0.05, 0.25, 0.06]

@@ -457,7 +457,7 @@ class _Compiler:
                 self.add_hands_apart(self.grasp_action[step.from_], action_id)
             if spec.grasps and action_id is not None:
                 self.grasp_action[step.robot] = action_id
-            self.track_resting(step, spec, action_id)
+            self.track_resting(step, spec, action_id, before.get(step.target or ""))
             self.apply_holding(step, spec)
         self.add_closed_chain(valid, before, after)
         stage_index = len(self.snapshots)
@@ -543,7 +543,9 @@ class _Compiler:
         nodes = (before[target], after[target])
         self.spatial.append(SpatialFactor("stroke", "implied", len(self.spatial), nodes, params, (action,)))
 
-    def track_resting(self, step: Step, spec: SkillSpec, action: int | None) -> None:
+    def track_resting(
+        self, step: Step, spec: SkillSpec, action: int | None, before_target: int | None = None
+    ) -> None:
         """Objects placed on one target and left there: a later placement on the same target
         must not overlap them (``apart`` on the two place actions, both poses in the target's
         frame, so the factor binds what is executed; the plan's own constraints bind the nodes,
@@ -561,6 +563,8 @@ class _Compiler:
         if step.target not in self.objects:
             return
         self.add_placed_inside(step.object, step.target, action)
+        self.add_released_clear(step.object, step.target, action)
+        self.add_placed_reach(step.robot, before_target, action)
         for other, other_action in self.resting.get(step.target, []):
             params = {
                 "weight": 1.0,
@@ -572,6 +576,44 @@ class _Compiler:
             actions = (other_action, action)
             self.spatial.append(SpatialFactor("apart", "implied", len(self.spatial), (), params, actions))
         self.resting.setdefault(step.target, []).append((step.object, action))
+
+    def add_placed_reach(self, robot: str, target_node: int | None, action: int) -> None:
+        """Where a place action releases the object (its pose in the target's frame, carried to
+        the world by the target's node) is within the arm's reach of its shoulder. The reach
+        factor binds the hand's node, which the place model ties to its action only loosely."""
+        if target_node is None:
+            return
+        shoulder = self.world_from_base(robot) @ np.array([0.0, 0.0, PANDA_SHOULDER_Z, 1.0])
+        params = {
+            "weight": 1.0,
+            "tolerance": REACH_TOLERANCE,
+            "shoulder": [float(v) for v in shoulder[:3]],
+            "reach": PANDA_REACH,
+        }
+        nodes = (target_node,)
+        self.spatial.append(
+            SpatialFactor("placed_reach", "implied", len(self.spatial), nodes, params, (action,))
+        )
+
+    def add_released_clear(self, obj: str, target: str, action: int) -> None:
+        """An object placed by a target without an opening, that no hand reaches under (the
+        rack), is released outside the target's box: beside it or on top. The place model for
+        a block by the rack was trained on placements in front of and behind the bar, and its
+        samples also fall between the two, under the bar (where the hand meets the bar: type 2);
+        Rearrangement Push's goal pulled them there."""
+        kind = OBJECT_KINDS[self.objects[target].kind]
+        if not kind.release_outside:
+            return
+        params = {
+            "weight": 1.0,
+            "tolerance": APART_TOLERANCE,
+            "clearance": PLACED_CLEARANCE,
+            "object_half_extents": list(OBJECT_KINDS[self.objects[obj].kind].half_extents),
+            "target_half_extents": list(kind.half_extents),
+        }
+        self.spatial.append(
+            SpatialFactor("released_clear", "implied", len(self.spatial), (), params, (action,))
+        )
 
     def add_placed_inside(self, obj: str, container: str, action: int) -> None:
         """An object placed into a container that it fits in whatever its yaw (its footprint's

@@ -565,3 +565,15 @@ def test_a_placement_by_the_rack_is_released_clear_of_it_and_within_reach() -> N
     assert set(by_type) == {"released_clear", "placed_reach"}
     assert graph.nodes[by_type["placed_reach"].nodes[0]].entity == "rack"
     assert by_type["released_clear"].params["target_half_extents"] == [0.05, 0.25, 0.06]
+
+
+def test_an_object_too_big_for_a_container_is_not_kept_apart_from_what_lands_on_it() -> None:
+    """The example puts the lid (32 x 22 cm) "in" a 30 x 20 cm box, where it rests on the rim,
+    and the cube after it: the cube is released inside the box's walls (it fits), the lid gets
+    no such factor, and nothing keeps the two apart (the cube lands on the lid)."""
+    graph = compile_plan(load_example("hammer_nail"))
+    step_of = {a.id: a.step for a in graph.actions}
+    skeleton = load_example("hammer_nail")["skeleton"]
+    inside = [skeleton[step_of[f.actions[0]]]["object"] for f in graph.spatial if f.type == "placed_inside"]
+    assert inside == ["cube"]
+    assert not [f for f in graph.spatial if f.type == "apart"]

@@ -139,9 +139,18 @@ def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan
     assert np.allclose(rot @ rot.T, np.eye(2), atol=1e-6)  # orthonormal columns: executable
     assert first["steps"][10]["action"] == []  # strike: precondition only
     assert set(first["nodes"]) == {n.label for n in plan.free}
-    # The plan's aligned and far, and the compiler's reach and hand-over clearance; kinematic
-    # links are off by default.
-    assert {r["type"] for r in first["residuals"]} == {"aligned", "far", "reach", "grasps_apart"}
+    # The plan's aligned and far, and the compiler's reach, hand-over clearance and the physics of
+    # placements (the cube released inside the spare box, every release within reach; the lid,
+    # too big for that box, rests on its rim, so no apart between the two); kinematic links are
+    # off by default.
+    assert {r["type"] for r in first["residuals"]} == {
+        "aligned",
+        "far",
+        "reach",
+        "grasps_apart",
+        "placed_inside",
+        "placed_reach",
+    }
     again = plan_candidates(plan, library, options)  # type: ignore[arg-type]
     assert again.candidates[0]["steps"] == first["steps"]  # same seed, same plan
 

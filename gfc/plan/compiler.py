@@ -565,6 +565,8 @@ class _Compiler:
         self.add_placed_inside(step.object, step.target, action)
         self.add_released_clear(step.object, step.target, action)
         self.add_placed_reach(step.robot, before_target, action)
+        if not self.rests_flat(step.object, step.target):
+            return
         for other, other_action in self.resting.get(step.target, []):
             params = {
                 "weight": 1.0,
@@ -576,6 +578,22 @@ class _Compiler:
             actions = (other_action, action)
             self.spatial.append(SpatialFactor("apart", "implied", len(self.spatial), (), params, actions))
         self.resting.setdefault(step.target, []).append((step.object, action))
+
+    def fits_inside(self, obj: str, container: str) -> bool:
+        """Whether ``obj`` fits ``container``'s opening at any yaw (its footprint's diagonal)."""
+        inner = OBJECT_KINDS[self.objects[container].kind].inner_half_extents
+        hx, hy, _ = OBJECT_KINDS[self.objects[obj].kind].half_extents
+        return inner is not None and math.hypot(hx, hy) <= min(inner[:2])
+
+    def rests_flat(self, obj: str, target: str) -> bool:
+        """Whether objects placed on ``target`` rest side by side on one surface, so that two of
+        them cannot overlap: inside a container they fit in, or on a plain target. Not an object
+        too big for a container (a lid rests on its rim; what is placed "in" it later lands on
+        the lid), nor by a target one can also place on top of (the rack)."""
+        kind = OBJECT_KINDS[self.objects[target].kind]
+        if kind.inner_half_extents is not None:
+            return self.fits_inside(obj, target)
+        return not kind.release_outside
 
     def add_placed_reach(self, robot: str, target_node: int | None, action: int) -> None:
         """Where a place action releases the object (its pose in the target's frame, carried to
@@ -621,8 +639,7 @@ class _Compiler:
         on the place action (a pose in the container's frame). Released across a wall, a block
         popped out (type 3); the goal's ``inside`` binds the end-state node, not the action."""
         kind = OBJECT_KINDS[self.objects[container].kind]
-        hx, hy, _ = OBJECT_KINDS[self.objects[obj].kind].half_extents
-        if kind.inner_half_extents is None or math.hypot(hx, hy) > min(kind.inner_half_extents[:2]):
+        if kind.inner_half_extents is None or not self.fits_inside(obj, container):
             return
         params = {
             "weight": 1.0,

@@ -252,9 +252,25 @@ class Screen:
         # As the executor (``reach`` with ``follow``): the pre-grasp solution must be one from
         # which the straight approach to the grasp can be tracked.
         self._reach(state, i, robot, approach_from(grasp), f"the pre-grasp of {obj}", follow=[grasp])
-        self._reach(state, i, robot, grasp, f"the grasp of {obj}", collide=False)
+        # The straight approach ends touching the object (allowed), and nothing else: a hand that
+        # meets a fixture there (the rack's bar over a block in front of it) knocks the object
+        # away on its way down (type 3, half of Rearrangement Push T2's top-1 failures).
+        # A container the object stands in may be brushed too (the cube in its bin).
+        self._reach(state, i, robot, grasp, f"the grasp of {obj}", allow=(obj, *self._containing(state, obj)))
         self._fingers_meet(state, i, robot, obj)
         return grasp
+
+    def _containing(self, state: _State, obj: str) -> list[str]:
+        """The containers whose open region holds ``obj``'s origin (its bottom centre)."""
+        out = []
+        for name, body in self.world.mirror.objects.items():
+            inner = object_kind(body.kind).inner_half_extents
+            if name == obj or inner is None:
+                continue
+            local = invert(state.poses[name]) @ state.poses[obj][:, 3]
+            if np.all(np.abs(local[:2]) <= inner[:2]) and -0.01 <= local[2] <= 2 * inner[2]:
+                out.append(name)
+        return out
 
     def _place(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
         obj, target = step.object, step.target
@@ -420,6 +436,7 @@ class Screen:
         collide: bool = True,
         ignore_others: bool = False,
         follow: Sequence[FloatArray] = (),
+        allow: Sequence[str] = (),
     ) -> None:
         """Find an IK solution for ``robot`` (others where they are) or raise; with ``collide``,
         one that collides with nothing. The executors check collisions only where they plan a
@@ -435,7 +452,7 @@ class Screen:
         if float(np.linalg.norm(world_from_ee[:3, 3] - shoulder[:3])) > MAX_REACH:
             p = world_from_ee[:3, 3]
             raise _Infeasible(i, f"{robot}: out of reach for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
-        check = self._collision_check(state, robot, ignore_others)
+        check = self._collision_check(state, robot, ignore_others, allow)
         aimed = aimed_home(mirror.robots[robot].world_from_base, world_from_ee)
         # Seeded first: the current joints, home aimed at the target, home, and the latest
         # solutions found for this arm (candidates of one plan ask for similar poses, and side
@@ -470,7 +487,9 @@ class Screen:
             why = f"every IK solution collides ({hit_any})" if hit_any else "no IK solution"
         raise _Infeasible(i, f"{robot}: {why} for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
 
-    def _collision_check(self, state: _State, robot: str, ignore_others: bool = False) -> CollisionFn:
+    def _collision_check(
+        self, state: _State, robot: str, ignore_others: bool = False, allow: Sequence[str] = ()
+    ) -> CollisionFn:
         """A collision test for ``robot``'s joints in the screened state: objects where the walk
         put them, the other arms at their screened joints, what ``robot`` holds carried along;
         with ``ignore_others``, contacts with the other arms and what they hold are allowed."""
@@ -488,6 +507,7 @@ class Screen:
             theirs = {r for r in state.joints if r != robot}
             theirs |= {state.held[r][0] for r in theirs if r in state.held}
             allowed = frozenset((a, b) for a in mine for b in theirs)
+        allowed |= frozenset((robot, name) for name in allow)
         return make_collision_fn(self.world, [robot], carried, {robot: 2 * OPEN}, allowed)
 
     def _fingers_meet(self, state: _State, i: int, robot: str, obj: str) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gfc.geometry import FloatArray
+from gfc.geometry import FloatArray, matrix_to_pose9, pose9_to_matrix
 from gfc.kinds import PANDA_REACH, PANDA_SHOULDER_Z
 from gfc.sim import screen as screen_module
 from gfc.sim.execute import execute_plan
@@ -206,3 +206,22 @@ def test_where_the_screen_slides_a_stroked_block_is_where_the_simulator_leaves_i
     (stroke,) = predicted
     actual = np.asarray(outcome.steps[stroke].poses["block"][:2])
     assert np.linalg.norm(predicted[stroke][:2, 3] - actual) < 0.01
+
+
+def test_a_grasp_whose_hand_meets_a_fixture_fails_at_the_grasp() -> None:
+    """The obstacle in front of the rack, grasped with the hand turned 90 degrees: the hand's
+    width (across the fingers) reaches the bar. The straight descent may touch the object, not
+    the rack: in the simulator the hand knocked the block away (fingers closed on nothing)."""
+    task = "rearrangement_push_t2"
+    actions = _reference(task, 0)
+    grasp = actions[0]
+    assert grasp is not None
+    turned = np.eye(4)
+    turned[:2, :2] = [[0.0, -1.0], [1.0, 0.0]]
+    actions[0] = matrix_to_pose9(turned @ pose9_to_matrix(grasp))
+    with Screen(sample_task(task, 0).plan) as screen:
+        assert screen.check(_reference(task, 0)).feasible
+        verdict = screen.check(actions)
+    assert not verdict.feasible
+    assert verdict.step == 0
+    assert "collides (right with rack) for the grasp of obstacle_0" in verdict.reason

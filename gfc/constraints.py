@@ -57,15 +57,21 @@ def inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     return torch.cat(out, dim=-1)
 
 
+def _identity_like(pose: torch.Tensor) -> torch.Tensor:
+    """The target's own frame as a pose9 batch shaped like ``pose`` (B, 9): for actions given
+    in that frame."""
+    frame = torch.tensor([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], dtype=pose.dtype)
+    return frame.expand(pose.shape[0], 9)
+
+
 def released_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """A place action (pose9 of an upright object in the target's frame, both boxes with their
     origin at the bottom centre) releases the object outside the target's box: ``clearance``
     apart in the table plane, or on its top. The residual is how far the better of the two
     falls short. (B, 1)"""
     (pose,) = nodes
-    frame = torch.tensor([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], dtype=pose.dtype)
     beside = footprint_separation(
-        pose, frame.expand(pose.shape[0], 9), params["object_half_extents"], params["target_half_extents"]
+        pose, _identity_like(pose), params["object_half_extents"], params["target_half_extents"]
     )
     above = pose[..., 2:3] - 2.0 * float(params["target_half_extents"][2])  # (B, 1)
     # Beside it: ``clearance`` apart; on top: resting on it is enough.
@@ -75,8 +81,7 @@ def released_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> tor
 def placed_inside(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """``inside`` for a pose given in the container's own frame (a place action). (B, 12)"""
     (pose,) = nodes
-    frame = torch.tensor([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], dtype=pose.dtype)
-    return inside([pose, frame.expand(pose.shape[0], 9)], params)
+    return inside([pose, _identity_like(pose)], params)
 
 
 def aligned(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:

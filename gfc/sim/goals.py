@@ -6,8 +6,10 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
+import torch
 
-from gfc.geometry import FloatArray, pose7_to_matrix
+from gfc.constraints import footprint_separation
+from gfc.geometry import FloatArray, matrix_to_pose9, pose7_to_matrix
 from gfc.kinds import ObjectKind, object_kind
 from gfc.plan.schema import Aligned, Apart, Far, FixedTransform, Inside, Near, SpatialFactorSpec, Yaw
 from gfc.sim.panda import ee_matrix
@@ -112,18 +114,13 @@ APART_SLACK = 0.002  # m: settled objects lean on each other by a millimetre or 
 def footprint_gap(
     world_from_a: FloatArray, half_a: Sequence[float], world_from_b: FloatArray, half_b: Sequence[float]
 ) -> float:
-    """The larger separation of two box footprints along their four edge normals (separating
-    axis test, negative when they overlap: then minus the smallest push that parts them)."""
-    axes_a, axes_b = world_from_a[:2, :2].T, world_from_b[:2, :2].T
-    normals = [n / max(float(np.linalg.norm(n)), 1e-9) for n in (*axes_a, *axes_b)]
-    centre = world_from_b[:2, 3] - world_from_a[:2, 3]
-
-    def radius(axes: FloatArray, half: Sequence[float], n: FloatArray) -> float:
-        return sum(float(h) * abs(float(ax @ n)) for ax, h in zip(axes, half[:2], strict=True))
-
-    return max(
-        abs(float(centre @ n)) - radius(axes_a, half_a, n) - radius(axes_b, half_b, n) for n in normals
+    """How far apart two box footprints are (negative when they overlap): the planner's
+    ``footprint_separation`` on simulator poses, so the goal check and the factor agree."""
+    a, b = (
+        torch.tensor(matrix_to_pose9(m), dtype=torch.float64).unsqueeze(0)
+        for m in (world_from_a, world_from_b)
     )
+    return float(footprint_separation(a, b, half_a, half_b))
 
 
 def goal_satisfied(world: World, goal: list[SpatialFactorSpec]) -> tuple[bool, list[str]]:

@@ -35,7 +35,7 @@ import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import ObjectKind, object_kind
-from gfc.plan.schema import PlanRequest, Step
+from gfc.plan.schema import Inside, PlanRequest, Step
 from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
 from gfc.sim.control import cartesian_joint_path, tracks_lines
 from gfc.sim.execute import stages
@@ -174,16 +174,11 @@ class Screen:
         where the place action puts it, a pushed one where the contact model slides it). Until
         session 12 a candidate that reached every pose passed whatever its end state: 0 of 32
         GFC candidates of Rearrangement Push T1 ended with the block under the rack."""
-        objects = self.world.mirror.objects
-
-        def kind(name: str) -> ObjectKind | None:
-            return object_kind(objects[name].kind) if name in objects else None
-
         missed = []
         for spec in self.plan.goal:
             if spec.refs() != ["end"]:
                 continue
-            holds, text = check_predicate_on(poses.__getitem__, kind, spec)
+            holds, text = check_predicate_on(poses.__getitem__, self._kind, spec)
             if not holds:
                 missed.append(text)
         return missed
@@ -261,16 +256,21 @@ class Screen:
         return grasp
 
     def _containing(self, state: _State, obj: str) -> list[str]:
-        """The containers whose open region holds ``obj``'s origin (its bottom centre)."""
-        out = []
-        for name, body in self.world.mirror.objects.items():
-            inner = object_kind(body.kind).inner_half_extents
-            if name == obj or inner is None:
-                continue
-            local = invert(state.poses[name]) @ state.poses[obj][:, 3]
-            if np.all(np.abs(local[:2]) <= inner[:2]) and -0.01 <= local[2] <= 2 * inner[2]:
-                out.append(name)
-        return out
+        """The containers ``obj`` stands in (the goal's ``inside`` test on the walked poses)."""
+        return [
+            name
+            for name, body in self.world.mirror.objects.items()
+            if name != obj
+            and object_kind(body.kind).is_container
+            and check_predicate_on(
+                state.poses.__getitem__, self._kind, Inside(type="inside", object=obj, target=name)
+            )[0]
+        ]
+
+    def _kind(self, name: str) -> ObjectKind | None:
+        """An entity's object kind (None: a robot), for the goal predicates."""
+        body = self.world.mirror.objects.get(name)
+        return None if body is None else object_kind(body.kind)
 
     def _place(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
         obj, target = step.object, step.target

@@ -190,6 +190,11 @@ class _Compiler:
         r = self.robots[robot]
         return pose7_to_matrix([*r.base, *yaw_quat(r.yaw)])
 
+    def shoulder(self, robot: str) -> list[float]:
+        """The arm's shoulder (joint 2) in the world: where its reach is measured from."""
+        point = self.world_from_base(robot) @ np.array([0.0, 0.0, PANDA_SHOULDER_Z, 1.0])
+        return [float(v) for v in point[:3]]
+
     def add_node(self, entity: str, known_value: np.ndarray | None, written_by: tuple[int, ...]) -> int:
         is_robot = entity in self.robots
         version = self.versions.get(entity, -1) + 1
@@ -509,8 +514,7 @@ class _Compiler:
         hand-over: the giver's move and the receiver's regrasp, whose data had givers on both
         sides) the composition could put the giver's hand over the other arm's base, 1 m and more
         from its shoulder (half of Hammer Place's hand-over samples before this factor)."""
-        shoulder = self.world_from_base(robot) @ np.array([0.0, 0.0, PANDA_SHOULDER_Z, 1.0])
-        params = {"weight": 1.0, "tolerance": REACH_TOLERANCE, "shoulder": [float(v) for v in shoulder[:3]]}
+        params = {"weight": 1.0, "tolerance": REACH_TOLERANCE, "shoulder": self.shoulder(robot)}
         params["reach"] = PANDA_REACH
         self.spatial.append(SpatialFactor("reach", "implied", len(self.spatial), (node,), params))
 
@@ -601,11 +605,10 @@ class _Compiler:
         factor binds the hand's node, which the place model ties to its action only loosely."""
         if target_node is None:
             return
-        shoulder = self.world_from_base(robot) @ np.array([0.0, 0.0, PANDA_SHOULDER_Z, 1.0])
         params = {
             "weight": 1.0,
             "tolerance": REACH_TOLERANCE,
-            "shoulder": [float(v) for v in shoulder[:3]],
+            "shoulder": self.shoulder(robot),
             "reach": PANDA_REACH,
         }
         nodes = (target_node,)

@@ -41,6 +41,13 @@ PANDA_REACH = 0.85
 HOOK_TIP_BAR_HALF_X = 0.015
 HOOK_TIP_BAR_Y = (-0.03, 0.06)
 HOOK_SHAFT_Y = (-0.06, -0.03)
+STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # a stroke's travel along the tool's x axis
+
+
+def hook_face_span(sign: float) -> tuple[float, float]:
+    """The y span (hook frame) of the face that moves a target: the tip bar's inner face for a
+    pull (``sign`` -1), the hook's whole far end, bar and shaft, for a push (+1)."""
+    return (HOOK_SHAFT_Y[0], HOOK_TIP_BAR_Y[1]) if sign > 0 else HOOK_TIP_BAR_Y
 
 
 @dataclass(frozen=True)

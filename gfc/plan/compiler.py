@@ -20,14 +20,14 @@ from pydantic import ValidationError
 from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_quat
 from gfc.kinds import (
     HOME_EE_POSE_IN_BASE,
-    HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
-    HOOK_TIP_BAR_Y,
     OBJECT_KINDS,
     OBJECT_STATE_DIM,
     PANDA_REACH,
     PANDA_SHOULDER_Z,
     ROBOT_STATE_DIM,
+    STROKE_SIGNS,
+    hook_face_span,
 )
 from gfc.plan.graph import (
     ActionVariable,
@@ -115,7 +115,6 @@ REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energ
 APART_TOLERANCE = 0.005  # m of overlap at which an apart factor's energy is 1/2
 PLACED_CLEARANCE = 0.006  # m between objects placed on one target, and from its walls (implied factors)
 STROKE_TOLERANCE = 0.01  # m: a stroked block ends within millimetres of the contact model
-STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # the direction of travel along the tool's x axis
 
 _UNION_TAGS = {
     "apart",
@@ -532,7 +531,7 @@ class _Compiler:
         if "tip" not in tool_kind.frames:
             return
         sign = STROKE_SIGNS[step.skill]
-        low, high = (HOOK_SHAFT_Y[0], HOOK_TIP_BAR_Y[1]) if sign > 0 else HOOK_TIP_BAR_Y
+        low, high = hook_face_span(sign)
         params = {
             "weight": 1.0,
             "tolerance": STROKE_TOLERANCE,

@@ -33,11 +33,14 @@ def _frame(poses: Poses, kinds: Kinds, name: str, frame: str | None) -> FloatArr
 
 def check_predicate(world: World, spec: SpatialFactorSpec) -> tuple[bool, str]:
     """Whether one predicate holds now in the simulator, and a line saying by how much."""
+    return check_predicate_on(lambda name: entity_matrix(world, name), _world_kinds(world), spec)
 
+
+def _world_kinds(world: World) -> Kinds:
     def kinds(name: str) -> ObjectKind | None:
         return None if name in world.physics.robots else object_kind(world.physics.objects[name].kind)
 
-    return check_predicate_on(lambda name: entity_matrix(world, name), kinds, spec)
+    return kinds
 
 
 def check_predicate_on(poses: Poses, kinds: Kinds, spec: SpatialFactorSpec) -> tuple[bool, str]:
@@ -125,11 +128,17 @@ def footprint_gap(
 
 def goal_satisfied(world: World, goal: list[SpatialFactorSpec]) -> tuple[bool, list[str]]:
     """All goal predicates that refer to the end state, checked in the simulator now."""
+    return goal_satisfied_on(lambda name: entity_matrix(world, name), _world_kinds(world), goal)
+
+
+def goal_satisfied_on(poses: Poses, kinds: Kinds, goal: list[SpatialFactorSpec]) -> tuple[bool, list[str]]:
+    """``goal_satisfied`` for entities at ``poses`` (a kinematic walk's end state): whether all
+    end-state predicates hold, and a line per predicate ("ok   " or "FAIL " first)."""
     report, ok = [], True
     for spec in goal:
         if spec.refs() != ["end"]:
             continue
-        holds, text = check_predicate(world, spec)
+        holds, text = check_predicate_on(poses, kinds, spec)
         ok = ok and holds
         report.append(("ok   " if holds else "FAIL ") + text)
     return ok, report

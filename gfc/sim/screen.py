@@ -34,12 +34,12 @@ import numpy as np
 import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
-from gfc.kinds import ObjectKind, object_kind
+from gfc.kinds import STROKE_SIGNS, ObjectKind, object_kind
 from gfc.plan.schema import Inside, PlanRequest, Step
 from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
 from gfc.sim.control import cartesian_joint_path, tracks_lines
 from gfc.sim.execute import stages
-from gfc.sim.goals import check_predicate_on
+from gfc.sim.goals import check_predicate_on, goal_satisfied_on
 from gfc.sim.ik import solve_ik
 from gfc.sim.outcome import SkillFailure
 from gfc.sim.panda import (
@@ -164,24 +164,17 @@ class Screen:
             held = state.held.get(robot)
             poses[robot] = self._hand_of(state, robot) if held else self._forward(robot, state.joints[robot])
             openings[robot] = self._closed_opening(state, robot, held[0]) if held else 2 * OPEN
-        missed = self._goal_missed(poses) if complete else []
-        if missed:
+        holds, report = (
+            goal_satisfied_on(poses.__getitem__, self._kind, self.plan.goal) if complete else (True, [])
+        )
+        if not holds:
+            # The walked end state: a placed object where the place action puts it, a pushed one
+            # where the contact model slides it. Until session 12 a candidate that reached every
+            # pose passed whatever its end state: 0 of 32 GFC candidates of Rearrangement Push T1
+            # ended with the block under the rack.
+            missed = [line.removeprefix("FAIL ") for line in report if line.startswith("FAIL ")]
             return Walk(Verdict(False, None, "the goal would not hold: " + "; ".join(missed)), {}, {})
         return Walk(Verdict(True), poses, openings)
-
-    def _goal_missed(self, poses: dict[str, FloatArray]) -> list[str]:
-        """The goal's predicates on the end state that fail on the walked poses (a placed object
-        where the place action puts it, a pushed one where the contact model slides it). Until
-        session 12 a candidate that reached every pose passed whatever its end state: 0 of 32
-        GFC candidates of Rearrangement Push T1 ended with the block under the rack."""
-        missed = []
-        for spec in self.plan.goal:
-            if spec.refs() != ["end"]:
-                continue
-            holds, text = check_predicate_on(poses.__getitem__, self._kind, spec)
-            if not holds:
-                missed.append(text)
-        return missed
 
     # -- one stage ----------------------------------------------------------------------------
 
@@ -193,8 +186,8 @@ class Screen:
                 "place": self._place,
                 "move": self._move,
                 "regrasp": self._regrasp,
-                "push": self._push,
-                "pull": self._pull,
+                "push": self._stroke,
+                "pull": self._stroke,
             }[step.skill](state, i, step, action)
             return
         if {s.skill for s in steps} == {"pick"}:
@@ -267,6 +260,11 @@ class Screen:
             )[0]
         ]
 
+    def _pose_objects(self, state: _State) -> None:
+        """Put the mirror's objects where the walk has them (before a collision query)."""
+        for name, pose in state.poses.items():
+            place_in_mirror(self.world.mirror, name, pose)
+
     def _kind(self, name: str) -> ObjectKind | None:
         """An entity's object kind (None: a robot), for the goal predicates."""
         body = self.world.mirror.objects.get(name)
@@ -293,8 +291,7 @@ class Screen:
         every top-1 failure of Constrained Packing in session 12's 10-scene check). Objects
         only: the hand opens and leaves."""
         mirror = self.world.mirror
-        for name, pose in state.poses.items():
-            place_in_mirror(mirror, name, pose)
+        self._pose_objects(state)
         body = mirror.objects[obj].body
         for name, other in mirror.objects.items():
             if name == obj:
@@ -322,14 +319,9 @@ class Screen:
         state.held[receiver] = (obj, invert(grasp) @ state.poses[obj])
         del state.held[giver]
 
-    def _push(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
-        self._stroke(state, i, step, action, 1.0)
-
-    def _pull(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
-        self._stroke(state, i, step, action, -1.0)
-
-    def _stroke(self, state: _State, i: int, step: Step, action: FloatArray, sign: float) -> None:
+    def _stroke(self, state: _State, i: int, step: Step, action: FloatArray) -> None:
         tool, target, robot = step.object, step.target, step.robot
+        sign = STROKE_SIGNS[step.skill]
         assert tool is not None
         assert target is not None
         self._require_holding(state, i, robot, tool)
@@ -494,8 +486,7 @@ class Screen:
         put them, the other arms at their screened joints, what ``robot`` holds carried along;
         with ``ignore_others``, contacts with the other arms and what they hold are allowed."""
         mirror = self.world.mirror
-        for name, pose in state.poses.items():
-            place_in_mirror(mirror, name, pose)
+        self._pose_objects(state)
         for name, q in state.joints.items():
             if name != robot:
                 set_joints(mirror.client, mirror.robots[name], q, OPEN)
@@ -556,9 +547,7 @@ class Screen:
         return 0.0
 
     def _check_together(self, state: _State, i: int, robots: list[str]) -> None:
-        mirror = self.world.mirror
-        for name, pose in state.poses.items():
-            place_in_mirror(mirror, name, pose)
+        self._pose_objects(state)
         carried = [Carried(r, o, e) for r, (o, e) in state.held.items() if r in robots]
         check = make_collision_fn(self.world, robots, carried, dict.fromkeys(robots, 2 * OPEN))
         hit = check(np.concatenate([state.joints[r] for r in robots]))

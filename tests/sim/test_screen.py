@@ -193,8 +193,8 @@ def test_where_the_screen_slides_a_stroked_block_is_where_the_simulator_leaves_i
     predicted: dict[int, FloatArray] = {}
     real_stroke = Screen._stroke
 
-    def recorded(self: Screen, state: object, i: int, step: object, action: FloatArray, sign: float) -> None:
-        real_stroke(self, state, i, step, action, sign)  # type: ignore[arg-type]
+    def recorded(self: Screen, state: object, i: int, step: object, action: FloatArray) -> None:
+        real_stroke(self, state, i, step, action)  # type: ignore[arg-type]
         predicted[i] = state.poses["block"].copy()  # type: ignore[attr-defined]
 
     monkeypatch.setattr(Screen, "_stroke", recorded)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gfc.geometry import FloatArray, approach_frame, invert, pose7_to_matrix
-from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, ObjectKind, object_kind
+from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, STROKE_SIGNS, ObjectKind, hook_face_span, object_kind
 from gfc.plan.schema import Step
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, straight, translated
@@ -118,12 +118,11 @@ def stroke_contact(
     ex, ey = float(target_half_extents[0]), float(target_half_extents[1])
     half_x, half_y = c * ex + s * ey, s * ex + c * ey  # the target's extent along the tool's axes
     tip_x = float(tool_kind.frame("tip")[0])
+    lateral = hook_face_span(sign)
     if sign > 0:
-        face, lateral = tip_x + HOOK_TIP_BAR_HALF_X, (HOOK_SHAFT_Y[0], HOOK_TIP_BAR_Y[1])
-        gap = (bx - half_x) - face
+        gap = (bx - half_x) - (tip_x + HOOK_TIP_BAR_HALF_X)
     else:
-        face, lateral = tip_x - HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y
-        gap = face - (bx + half_x)
+        gap = (tip_x - HOOK_TIP_BAR_HALF_X) - (bx + half_x)
         if by - half_y < HOOK_SHAFT_Y[1] and bx - half_x < tip_x + HOOK_TIP_BAR_HALF_X:
             raise SkillFailure(
                 FailureType.PATH, f"the shaft would land on the target ({by * 100:.1f} cm to its side)"
@@ -185,8 +184,8 @@ def _retreat(ctx: SkillContext, robot: str) -> None:
 
 
 def push(ctx: SkillContext, step: Step, action: FloatArray) -> str:
-    return _stroke(ctx, step, action, 1.0)
+    return _stroke(ctx, step, action, STROKE_SIGNS["push"])
 
 
 def pull(ctx: SkillContext, step: Step, action: FloatArray) -> str:
-    return _stroke(ctx, step, action, -1.0)
+    return _stroke(ctx, step, action, STROKE_SIGNS["pull"])

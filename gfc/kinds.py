@@ -68,6 +68,13 @@ class ObjectKind:
     def is_container(self) -> bool:
         return self.inner_half_extents is not None
 
+    @property
+    def quarter_turn_symmetric(self) -> bool:
+        """Whether a quarter turn about the vertical axis leaves it as it was: a square footprint
+        and no named frames (a block). A grasp or placement of it turned so is the same one."""
+        hx, hy, _ = self.half_extents
+        return hx == hy and not self.frames and not self.is_container
+
     def frame(self, name: str | None) -> tuple[float, ...]:
         """The pose of a named frame in the object frame; ``None`` is the object frame."""
         if name is None or name == "base":

@@ -562,9 +562,42 @@ def test_a_placement_by_the_rack_is_released_clear_of_it_and_within_reach() -> N
     graph = compile_plan(sample_task("rearrangement_push_t1", 0).plan)
     place = next(a.id for a in graph.actions if graph.temporal[a.step].skill == "place")
     by_type = {f.type: f for f in graph.spatial if f.source == "implied" and f.actions == (place,)}
-    assert set(by_type) == {"released_clear", "placed_reach"}
+    assert set(by_type) == {"released_clear", "placed_reach", "relative_pose"}
     assert graph.nodes[by_type["placed_reach"].nodes[0]].entity == "rack"
     assert by_type["released_clear"].params["target_half_extents"] == [0.05, 0.25, 0.06]
+
+
+def test_a_stroke_after_a_placement_starts_where_the_place_action_puts_the_object() -> None:
+    """The push plans from the block's node after its placement; a ``relative_pose`` link ties
+    that node to the place action in the rack's frame (the place model alone left it 11-27 cm
+    off). Without a stroke after it (packing) a placement gets no such link, and with
+    ``options.kinematics`` on it comes once, from the kinematic links."""
+    plan = sample_task("rearrangement_push_t2", 0).plan
+    graph = compile_plan(plan)
+    place = next(a for a in graph.actions if graph.temporal[a.step].skill == "place" and a.step == 3)
+    (link,) = [f for f in graph.spatial if f.type == "relative_pose"]
+    assert link.source == "implied" and link.actions == (place.id,)
+    rack, block = (graph.nodes[n] for n in link.nodes)
+    assert rack.entity == "rack" and block.entity == "block" and block.written_by == (3,)
+    (stroke,) = [f for f in graph.spatial if f.type == "stroke"]
+    assert stroke.nodes[0] == block.id
+    packing = compile_plan(sample_task("constrained_packing_t2", 0).plan)
+    assert not [f for f in packing.spatial if f.type == "relative_pose"]
+    data = plan.to_json_dict()
+    data["options"]["kinematics"] = True
+    linked = compile_plan(data)
+    assert len([f for f in linked.spatial if f.type == "relative_pose" and f.actions == (place.id,)]) == 1
+
+
+def test_a_goal_tolerance_is_a_bound_the_energy_keeps_well_inside() -> None:
+    """An ``aligned`` goal's tolerance is what the simulator checks; its factor's sigma is a third
+    of it (as a yaw goal's). A constraint's tolerance is its sigma."""
+    graph = compile_plan(sample_task("rearrangement_push_t1", 0).plan)
+    (goal,) = [f for f in graph.spatial if f.type == "aligned"]
+    assert goal.source == "goal" and goal.params["tolerance"] == pytest.approx(0.04 / 3)
+    nail = compile_plan(sample_task("hammer_nail", 0).plan)
+    tolerances = sorted((f.source, f.params["tolerance"]) for f in nail.spatial if f.type == "aligned")
+    assert tolerances == [("constraints", pytest.approx(0.02 / 3)), ("goal", pytest.approx(0.02 / 3))]
 
 
 def test_an_object_too_big_for_a_container_is_not_kept_apart_from_what_lands_on_it() -> None:

@@ -90,3 +90,28 @@ def test_an_arm_folded_onto_itself_is_in_collision() -> None:
         folded[5] = 0.78  # and the wrist tipped back: the fingers reach the shoulder
         hit = check(folded)
         assert hit is not None and hit.other.startswith("itself"), hit
+
+
+def test_a_carried_object_keeps_the_clearance_asked_for() -> None:
+    """The left hand carries a block (held at its centre) with its bottom 5 mm over the rack's
+    bar: it touches nothing, so there is no collision without a clearance, and a collision with
+    the rack within 1 cm; 3 cm over the bar it is clear either way. The hand holding it never
+    counts."""
+    from gfc.geometry import invert
+    from gfc.sim.collision import Carried
+
+    scene = SCENE.model_dump()
+    scene["objects"].append({"name": "block", "kind": "block", "pose": [0.3, 0.0, TABLE_TOP_Z, 0, 0, 0, 1]})
+    bar_top = TABLE_TOP_Z + 0.12
+    with build_world(Scene.model_validate(scene)) as world:
+        for gap, expected in ((0.005, "rack (within 1 cm)"), (0.03, None)):
+            world_from_block = frame([0.45, 0.35, bar_top + gap], np.eye(3))
+            world_from_ee = frame([0.45, 0.35, bar_top + gap + 0.025], DOWN)
+            q = solve_ik(world, "left", world_from_ee, np.asarray(HOME_JOINTS), np.random.default_rng(0))
+            assert q is not None
+            carried = [Carried("left", "block", invert(world_from_ee) @ world_from_block)]
+            assert make_collision_fn(world, ["left"], carried, {"left": 0.05})(q) is None
+            hit = make_collision_fn(world, ["left"], carried, {"left": 0.05}, clearance=0.01)(q)
+            assert (hit.other if hit else None) == expected
+            if hit:
+                assert hit.moving == "block"

@@ -13,12 +13,15 @@ from gfc.sim.skills.motions import (
     backed_off,
     check_grasp_on_object,
     ee,
+    first_reachable,
     held_offset_error,
     reach,
     require_free,
     require_holding,
     straight,
+    symmetries,
     translated,
+    upright_first,
 )
 from gfc.sim.world import object_matrix
 
@@ -44,10 +47,16 @@ def pick(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     for other, grasp in world.grasps.items():
         if grasp.object == obj:
             raise SkillFailure(FailureType.METHOD, f"{obj} is held by {other}; use regrasp")
-    world_from_grasp = object_matrix(world.physics, obj) @ pose9_to_matrix(action)
-    check_grasp_on_object(world, obj, world_from_grasp)
-    lifted = translated(world_from_grasp, [0.0, 0.0, LIFT])
-    reach(ctx, robot, pre_grasp(world_from_grasp), f"the pre-grasp of {obj}", [world_from_grasp, lifted])
+    world_from_object = object_matrix(world.physics, obj)
+    object_from_grasp = pose9_to_matrix(action)
+    grasps = upright_first([world_from_object @ same @ object_from_grasp for same in symmetries(world, obj)])
+    check_grasp_on_object(world, obj, grasps[0])
+
+    def approach(world_from_grasp: FloatArray) -> None:
+        lifted = translated(world_from_grasp, [0.0, 0.0, LIFT])
+        reach(ctx, robot, pre_grasp(world_from_grasp), f"the pre-grasp of {obj}", [world_from_grasp, lifted])
+
+    world_from_grasp = first_reachable(grasps, approach)
     straight(ctx, robot, world_from_grasp, f"the grasp pose of {obj}")
     z_before = object_matrix(world.physics, obj)[2, 3]
     if close_gripper(world, robot, obj) is None:

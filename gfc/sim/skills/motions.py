@@ -3,8 +3,9 @@ straight line, and the geometric checks that turn into failure type 1."""
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +32,11 @@ APPROACH = 0.10  # m: pre-grasp offset back along the gripper's approach axis
 LIFT = PICK_LIFT  # m: how far a pick lifts the object
 IK_ATTEMPTS = 24
 LEAN_MARGIN = math.radians(5.0)  # rad a leaning container may tilt further while carried
+# m a carried object keeps from everything on a planned motion (reach): the executed path runs
+# a few millimetres off the planned one. Without it, a direct path to above the box sagged to
+# 7 mm over the box's wall and caught the carried block on it (Rearrangement Push T3, seed 4).
+CARRIED_CLEARANCE = 0.01
+DOWN_COS = math.cos(math.radians(30.0))  # hands this close to straight down count as from above
 # Attempts go on up to this many times IK_ATTEMPTS while nothing is found: free solutions of
 # tight poses (a cup held low in front of the body) are rare among random starts, and the
 # screen, which searches differently, may have found one.
@@ -65,7 +71,10 @@ def carried_by(ctx: SkillContext, robots: Sequence[str]) -> list[Carried]:
 
 
 def collision_fn(
-    ctx: SkillContext, robots: Sequence[str], allowed: frozenset[tuple[str, str]] = frozenset()
+    ctx: SkillContext,
+    robots: Sequence[str],
+    allowed: frozenset[tuple[str, str]] = frozenset(),
+    clearance: float = 0.0,
 ) -> CollisionFn:
     sync_mirror(ctx.world)
     openings = gripper_openings(ctx.world)
@@ -77,7 +86,7 @@ def collision_fn(
         for c in carried
         if ctx.world.contents.get(c.object, 0) > 0
     }
-    return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright)
+    return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright, clearance)
 
 
 def upright_limit(world_from_object: FloatArray) -> float:
@@ -215,7 +224,13 @@ def reach(
     """
     check = collision_fn(ctx, [robot])
     goal = free_ik(ctx, robot, world_from_ee, check, what, follow)
-    result = plan_motion(check, joints(ctx, robot), goal, ctx.rng)
+    start = joints(ctx, robot)
+    # What the hand carries keeps CARRIED_CLEARANCE from everything on the way, where both ends
+    # of the motion allow it (a pour's meeting or a hand-over ends closer: planned as before).
+    wide = collision_fn(ctx, [robot], clearance=CARRIED_CLEARANCE) if carried_by(ctx, [robot]) else None
+    if wide is not None and wide(start) is None and wide(goal) is None:
+        check = wide
+    result = plan_motion(check, start, goal, ctx.rng)
     ctx.planning_s += result.planning_s
     if result.path is None:
         raise SkillFailure(FailureType.PATH, f"{robot}: no collision-free path to {what}: {result.reason}")
@@ -275,3 +290,60 @@ def held_offset_error(ctx: SkillContext, robot: str) -> float:
     grasp = ctx.world.grasps[robot]
     now = invert(ee(ctx, robot)) @ object_matrix(ctx.world.physics, grasp.object)
     return float(np.linalg.norm(now[:3, 3] - grasp.ee_from_object[:3, 3]))
+
+
+def symmetries(world: World, obj: str) -> list[FloatArray]:
+    """Rigid motions (object frame, 4x4) that map ``obj`` onto itself, the identity first: for
+    a cube (a block) the 24 rotations about its centre, for a square footprint the quarter
+    turns about its vertical axis, else none but the identity. A pose of the object composed
+    with one of them is the same physical pose: a block that a pull tipped onto its side is
+    still a block standing upright."""
+    kind = object_kind(world.physics.objects[obj].kind)
+    if not kind.quarter_turn_symmetric:
+        return [np.eye(4)]
+    hx, _, hz = kind.half_extents
+    cube = math.isclose(hx, hz)
+    centre = np.array([0.0, 0.0, hz])
+    out = [np.eye(4)]
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            rotation = np.zeros((3, 3))
+            for row, (col, sign) in enumerate(zip(perm, signs, strict=True)):
+                rotation[row, col] = sign
+            if np.linalg.det(rotation) < 0 or np.allclose(rotation, np.eye(3)):
+                continue
+            if not cube and not np.isclose(rotation[2, 2], 1.0):
+                continue
+            motion = np.eye(4)
+            motion[:3, :3], motion[:3, 3] = rotation, centre - rotation @ centre
+            out.append(motion)
+    return out
+
+
+def upright_first(poses: Sequence[FloatArray], limit: int = 4) -> list[FloatArray]:
+    """The first pose (the commanded one), then up to ``limit - 1`` of the others whose hand
+    points down most steeply (within 30 degrees of straight down), steepest first."""
+    rest = sorted(poses[1:], key=lambda pose: float(pose[2, 2]))
+    return [poses[0], *[pose for pose in rest if pose[2, 2] < -DOWN_COS][: limit - 1]]
+
+
+def first_reachable(poses: Sequence[FloatArray], attempt: Callable[[FloatArray], None]) -> FloatArray:
+    """The first of equivalent hand poses ``attempt`` (a ``reach`` to it) succeeds for; the
+    failure for the first pose if none. A ``reach`` that fails has not moved the arm. The
+    executor tries the equivalents only once the commanded pose has failed, so every execution
+    that worked before is unchanged. A pull tips the block onto its side now and then; the
+    plan's grasp (from above, in the block's frame) is then a side grasp no arm can make, and an
+    equivalent one comes from above again (Hook Reach T1, session 13: 16 of 96 top-1 trials
+    failed at that pick with "no IK solution for the pre-grasp")."""
+    first: SkillFailure | None = None
+    for pose in poses:
+        try:
+            attempt(pose)
+        except SkillFailure as exc:
+            if exc.failure_type == FailureType.PHYSICS:
+                raise
+            first = first or exc
+            continue
+        return pose
+    assert first is not None
+    raise first

@@ -10,7 +10,17 @@ from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.plan.schema import Step
 from gfc.sim.control import open_gripper
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, straight, translated
+from gfc.sim.skills.motions import (
+    SkillContext,
+    ee,
+    first_reachable,
+    reach,
+    require_holding,
+    straight,
+    symmetries,
+    translated,
+    upright_first,
+)
 from gfc.sim.world import object_matrix
 from gfc.sim.world import step as physics_step
 
@@ -25,15 +35,17 @@ def place(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     assert obj is not None
     assert target is not None
     require_holding(world, robot, obj)
-    world_from_goal = object_matrix(world.physics, target) @ pose9_to_matrix(action)
-    world_from_ee = world_from_goal @ invert(world.grasps[robot].ee_from_object)
-    reach(
-        ctx,
-        robot,
-        translated(world_from_ee, [0.0, 0.0, PLACE_APPROACH]),
-        f"above the {target}",
-        [world_from_ee],
-    )
+    commanded = object_matrix(world.physics, target) @ pose9_to_matrix(action)
+    ee_from_object = world.grasps[robot].ee_from_object
+
+    def descend_from_above(world_from_ee: FloatArray) -> None:
+        above = translated(world_from_ee, [0.0, 0.0, PLACE_APPROACH])
+        reach(ctx, robot, above, f"above the {target}", [world_from_ee])
+
+    # The object at the commanded pose, or at one the same as it (a block turned over): hands.
+    hands = upright_first([commanded @ same @ invert(ee_from_object) for same in symmetries(world, obj)])
+    world_from_ee = first_reachable(hands, descend_from_above)
+    world_from_goal = world_from_ee @ ee_from_object
     straight(ctx, robot, world_from_ee, f"the placement of {obj}")
     open_gripper(world, robot)
     straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, PLACE_APPROACH]), "the retreat")

@@ -42,6 +42,10 @@ HOOK_TIP_BAR_HALF_X = 0.015
 HOOK_TIP_BAR_Y = (-0.03, 0.06)
 HOOK_SHAFT_Y = (-0.06, -0.03)
 STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # a stroke's travel along the tool's x axis
+# m between the hook's working face and its target where the hook comes down for a stroke (the
+# tasks' reference strokes leave 1 cm). Planned at 0 mm, the tip bar came down on the block's
+# edge and the pull slid over it (Hook Reach T1 seed 4, session 13).
+STROKE_CLEARANCE = 0.01
 
 
 def hook_face_span(sign: float) -> tuple[float, float]:

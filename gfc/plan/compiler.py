@@ -26,6 +26,7 @@ from gfc.kinds import (
     PANDA_REACH,
     PANDA_SHOULDER_Z,
     ROBOT_STATE_DIM,
+    STROKE_CLEARANCE,
     STROKE_SIGNS,
     hook_face_span,
 )
@@ -548,6 +549,7 @@ class _Compiler:
             "tip": [float(v) for v in tool_kind.frame("tip")[:3]],
             "bar_half_x": HOOK_TIP_BAR_HALF_X,
             "half_extents": list(OBJECT_KINDS[self.objects[target].kind].half_extents),
+            "clearance": STROKE_CLEARANCE,
             # A centimetre inside the face's ends: a block caught by its edge slips off.
             "lateral": [low + STROKE_TOLERANCE, high - STROKE_TOLERANCE],
         }

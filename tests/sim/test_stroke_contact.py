@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from gfc import constraints
 from gfc.geometry import FloatArray, matrix_to_pose9
-from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, object_kind
+from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, STROKE_CLEARANCE, object_kind
 from gfc.sim.bodies import recipe_for
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.skills.tools import stroke_contact, stroke_poses
@@ -73,8 +73,16 @@ def test_a_turned_block_reaches_further_along_the_stroke() -> None:
         (_pose(TIP_X - 0.02, 0.02), 0.2, -1.0, FailureType.PATH, "lowered tool would land"),
         (_pose(TIP_X - 0.05, 0.02), 0.015, -1.0, FailureType.PHYSICS, "the stroke ends"),
         (_pose(TIP_X + 0.15, 0.02), 0.1, 1.0, FailureType.PHYSICS, "the stroke ends"),
+        # the bar's inner face 2 mm from the block: it would come down on the block's edge
+        (
+            _pose(TIP_X - HOOK_TIP_BAR_HALF_X - 0.002 - BLOCK[0], 0.02),
+            0.2,
+            -1.0,
+            FailureType.PATH,
+            "come down 0.2 cm",
+        ),
     ],
-    ids=["off-the-face", "on-the-shaft", "under-the-tip", "too-short", "push-too-far"],
+    ids=["off-the-face", "on-the-shaft", "under-the-tip", "too-short", "push-too-far", "too-close"],
 )
 def test_strokes_that_would_not_move_the_block_fail_with_their_reason(
     block: FloatArray, r: float, sign: float, failure: FailureType, words: str
@@ -85,7 +93,7 @@ def test_strokes_that_would_not_move_the_block_fail_with_their_reason(
 
 
 @given(
-    gap=st.floats(0.0, 0.1),
+    gap=st.floats(STROKE_CLEARANCE / 2 + 1e-6, 0.1),
     extra=st.floats(0.02, 0.15),
     side=st.floats(0.0, 0.04),
     x=st.floats(-1.0, 1.0),
@@ -152,8 +160,11 @@ def test_the_planners_stroke_factor_says_what_the_screens_contact_model_says(
         assert out.shape == (1, 4)
         return out[0].numpy()
 
-    # The screen lets a tool start up to CONTACT_SLACK inside the block; the factor wants none.
-    np.testing.assert_allclose(residual(after), [0.0, 0.0, 0.0, max(0.0, -contact.gap)], atol=1e-9)
+    # The screen passes a tool lowered STROKE_CLEARANCE / 2 from the block; the factor wants
+    # ``clearance`` (none by default).
+    np.testing.assert_allclose(residual(after), [0.0, 0.0, 0.0, 0.0], atol=1e-9)
+    params["clearance"] = STROKE_CLEARANCE
+    np.testing.assert_allclose(residual(after)[3], max(0.0, STROKE_CLEARANCE - contact.gap), atol=1e-9)
     off = after.copy()
     off[:2, 3] += [0.03, -0.04]
     np.testing.assert_allclose(residual(off)[:2], [0.03, -0.04], atol=1e-9)

@@ -25,7 +25,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from gfc.geometry import FloatArray, approach_frame, invert, pose7_to_matrix
-from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, STROKE_SIGNS, ObjectKind, hook_face_span, object_kind
+from gfc.kinds import (
+    HOOK_SHAFT_Y,
+    HOOK_TIP_BAR_HALF_X,
+    STROKE_CLEARANCE,
+    STROKE_SIGNS,
+    ObjectKind,
+    hook_face_span,
+    object_kind,
+)
 from gfc.plan.schema import Step
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, straight, translated
@@ -134,6 +142,13 @@ def stroke_contact(
     if gap < -CONTACT_SLACK:
         raise SkillFailure(
             FailureType.PATH, f"the lowered tool would land on the target ({-gap * 100:.1f} cm)"
+        )
+    if gap < STROKE_CLEARANCE / 2:
+        # A tool lowered within a few millimetres of the target's face catches its edge.
+        raise SkillFailure(
+            FailureType.PATH,
+            f"the tool would come down {gap * 100:.1f} cm from the target (at least "
+            f"{STROKE_CLEARANCE * 50:.1f} cm)",
         )
     travel = r - max(gap, 0.0)
     if travel < MIN_TARGET_MOTION + CONTACT_SLACK:

@@ -169,7 +169,8 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     Residuals (B, 4), metres: the target's xy after the stroke minus where the hook leaves it
     (slid along the stroke by r less the gap the hook closes first); how far the target's centre
     is outside the hook's face (``lateral``, the y span that catches it); and how far the tool
-    would come down closer to the target than ``clearance`` (0: inside it)."""
+    would come down closer to the target than ``clearance`` (0: inside it); with
+    ``max_length``, a fifth: how far the stroke is longer than that (B, 5)."""
     before, after, action = nodes
     pose = _pose_of(before)  # (B, 4, 4)
     centre = pose[..., :2, 3]  # (B, 2)
@@ -192,7 +193,10 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     low, high = params["lateral"]
     outside = torch.relu(low - across) + torch.relu(across - high)
     short = torch.relu(float(params.get("clearance", 0.0)) - gap)
-    return torch.cat([after[..., :2] - slid, outside.unsqueeze(-1), short.unsqueeze(-1)], dim=-1)
+    out = [after[..., :2] - slid, outside.unsqueeze(-1), short.unsqueeze(-1)]
+    if params.get("max_length") is not None:
+        out.append(torch.relu(r - float(params["max_length"])).unsqueeze(-1))
+    return torch.cat(out, dim=-1)
 
 
 def _footprint_axes(pose: torch.Tensor) -> torch.Tensor:

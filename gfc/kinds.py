@@ -46,6 +46,7 @@ STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # a stroke's travel along the tool's
 # tasks' reference strokes leave 1 cm). Planned at 0 mm, the tip bar came down on the block's
 # edge and the pull slid over it (Hook Reach T1 seed 4, session 13).
 STROKE_CLEARANCE = 0.01
+MAX_STROKE = 0.3  # m: the longest push or pull the executor makes
 
 
 def hook_face_span(sign: float) -> tuple[float, float]:

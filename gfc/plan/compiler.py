@@ -21,6 +21,7 @@ from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_q
 from gfc.kinds import (
     HOME_EE_POSE_IN_BASE,
     HOOK_TIP_BAR_HALF_X,
+    MAX_STROKE,
     OBJECT_KINDS,
     OBJECT_STATE_DIM,
     PANDA_REACH,
@@ -550,6 +551,8 @@ class _Compiler:
             "bar_half_x": HOOK_TIP_BAR_HALF_X,
             "half_extents": list(OBJECT_KINDS[self.objects[target].kind].half_extents),
             "clearance": STROKE_CLEARANCE,
+            # The stroke's length, which the clearance adds to, within what the executor makes.
+            "max_length": MAX_STROKE,
             # A centimetre inside the face's ends: a block caught by its edge slips off.
             "lateral": [low + STROKE_TOLERANCE, high - STROKE_TOLERANCE],
         }

@@ -165,6 +165,11 @@ def test_the_planners_stroke_factor_says_what_the_screens_contact_model_says(
     np.testing.assert_allclose(residual(after), [0.0, 0.0, 0.0, 0.0], atol=1e-9)
     params["clearance"] = STROKE_CLEARANCE
     np.testing.assert_allclose(residual(after)[3], max(0.0, STROKE_CLEARANCE - contact.gap), atol=1e-9)
+    longest = {**params, "max_length": 0.1}  # the executor's longest stroke, here 10 cm
+    nodes = [torch.tensor(matrix_to_pose9(m), dtype=torch.float64).unsqueeze(0) for m in (block, after)]
+    out = constraints.stroke([*nodes, torch.tensor(action, dtype=torch.float64).unsqueeze(0)], longest)
+    assert out.shape == (1, 5)
+    assert float(out[0, 4]) == pytest.approx(max(0.0, r - 0.1), abs=1e-12)
     off = after.copy()
     off[:2, 3] += [0.03, -0.04]
     np.testing.assert_allclose(residual(off)[:2], [0.03, -0.04], atol=1e-9)

@@ -28,6 +28,7 @@ from gfc.geometry import FloatArray, approach_frame, invert, pose7_to_matrix
 from gfc.kinds import (
     HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
+    MAX_STROKE,
     STROKE_CLEARANCE,
     STROKE_SIGNS,
     ObjectKind,
@@ -40,7 +41,6 @@ from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, str
 from gfc.sim.world import object_matrix
 
 HOVER = 0.08  # m above the working height where the tool is lowered from
-MAX_STROKE = 0.3
 RETREAT_FALLBACK = 0.03  # m: the lift tried when the full one cannot be tracked
 MIN_TARGET_MOTION = 0.01  # m the target must move for the stroke to count
 CONTACT_SLACK = 0.003  # m: what a contact prediction may be off by

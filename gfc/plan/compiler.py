@@ -153,6 +153,11 @@ class _State:
     holding: dict[str, str | None] = field(default_factory=dict)  # robot -> object held
 
 
+def _nodes_by_token(tokens: list[FactorToken]) -> dict[tuple[str, str], int]:
+    """A step factor's node ids by (role, phase)."""
+    return {(t.role, t.phase): t.node for t in tokens if t.node is not None}
+
+
 class _Compiler:
     def __init__(self, plan: PlanRequest) -> None:
         self.plan = plan
@@ -487,7 +492,7 @@ class _Compiler:
         self, spec: SkillSpec, with_object: bool, tokens: list[FactorToken], action_id: int | None
     ) -> None:
         """The step's kinematic links (gfc/plan/kinematics.py) as implied spatial factors."""
-        node_of = {(t.role, t.phase): t.node for t in tokens if t.node is not None}
+        node_of = _nodes_by_token(tokens)
         for link in links_of(spec.name, with_object):
             nodes = [node_of.get(ref) for ref in link.nodes]
             if any(n is None for n in nodes) or (link.with_action and action_id is None):
@@ -564,7 +569,7 @@ class _Compiler:
         """Remember where a place step's object node comes to rest (for ``add_rest_link``)."""
         if spec.name != "place" or action is None:
             return
-        node_of = {(t.role, t.phase): t.node for t in tokens if t.node is not None}
+        node_of = _nodes_by_token(tokens)
         target, placed = node_of.get(("target", "pre")), node_of.get(("object", "effect"))
         if target is not None and placed is not None:
             self.placed_by[placed] = (target, action)

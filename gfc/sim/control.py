@@ -201,12 +201,12 @@ def _fix_to_hand(world: World, robot: str, object_name: str) -> Grasp:
     return grasp
 
 
-def open_gripper(world: World, robot: str, steps: int = 60) -> None:
-    """Let go: remove the grasp constraint and open the fingers."""
+def open_gripper(world: World, robot: str, steps: int = 60, finger: float = FINGER_MAX) -> None:
+    """Let go: remove the grasp constraint and open the fingers (each to ``finger`` m)."""
     grasp = world.grasps.pop(robot, None)
     if grasp is not None:
         pb.removeConstraint(grasp.constraint, physicsClientId=world.client)
-    command_fingers(world.client, world.physics.robots[robot], FINGER_MAX)
+    command_fingers(world.client, world.physics.robots[robot], finger)
     step(world, steps)
 
 

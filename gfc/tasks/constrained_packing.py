@@ -3,7 +3,7 @@
 
 - ``constrained_packing_t1``: 4 blocks (8 steps), two columns of two.
 - ``constrained_packing_t2``: 5 blocks (10 steps), columns of three and two.
-- ``constrained_packing_t3``: 6 blocks (12 steps), two columns of three, 1 cm between neighbours.
+- ``constrained_packing_t3``: 6 blocks (12 steps), two columns of three, 7.5 mm between neighbours.
 
 Goal: every block ``inside`` the box (margin 5 mm: the planner's energy then keeps every corner of
 a block 5 mm inside the walls, which the three-row columns need). The

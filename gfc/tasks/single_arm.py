@@ -44,12 +44,14 @@ TIP_GAP = 0.01  # m the block travels less than the hand: the gap closed before 
 
 # Blocks stand in a box with their y axis along the box's x axis (turned 90 degrees): the fingers
 # close along the block's y axis, so they open along the box's long axis, where the slots leave
-# room for them (columns 14 cm apart), never towards a neighbour 6 cm away in the same column.
+# room for them (columns 14 cm apart), never towards a neighbour 5.75 cm away in the same column.
 BLOCK_IN_BOX_YAW = math.pi / 2
 BOX_COLUMNS = (0.07, -0.07)  # the far column (box +x) first: the hand never reaches over a placed block
-BOX_ROWS_3 = (-0.06, 0.0, 0.06)  # 1 cm between neighbours; the outer ones 5 mm from the wall
+# 7.5 mm between neighbours and from the walls: the planner keeps placements PLACED_CLEARANCE
+# (9 mm) apart and from the walls with a 2 mm sigma, which these slots meet within a sigma.
+BOX_ROWS_3 = (-0.0575, 0.0, 0.0575)
 BOX_ROWS_2 = (-0.045, 0.045)
-# Placed blocks' footprints keep this much between them (the slots leave 1 cm).
+# Placed blocks' footprints keep this much between them (the slots leave 7.5 mm).
 BLOCK_CLEARANCE = 0.005
 
 

@@ -237,14 +237,23 @@ def reach(
     execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)})
 
 
-def straight(ctx: SkillContext, robot: str, world_from_ee: FloatArray, what: str, speed: float = 0.5) -> None:
-    """Move the end effector in a straight line (approach, retreat, lift); contact is allowed."""
+def straight(
+    ctx: SkillContext,
+    robot: str,
+    world_from_ee: FloatArray,
+    what: str,
+    speed: float = 0.5,
+    finger: float | None = None,
+) -> None:
+    """Move the end effector in a straight line (approach, retreat, lift); contact is allowed.
+    ``finger``: the finger command on the way (default: keep the grip, or open)."""
     start = ee(ctx, robot)
     poses = interpolate_poses(start, world_from_ee, waypoint_count(start, world_from_ee))
     path = cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng)
     if path is None:
         raise SkillFailure(FailureType.METHOD, f"{robot}: cannot move in a straight line to {what}")
-    execute_paths(ctx.world, {robot: path}, {robot: gripper_target(ctx.world, robot)}, speed=speed)
+    fingers = gripper_target(ctx.world, robot) if finger is None else finger
+    execute_paths(ctx.world, {robot: path}, {robot: fingers}, speed=speed)
 
 
 def translated(world_from_frame: FloatArray, offset: Sequence[float] | FloatArray) -> FloatArray:

@@ -1,0 +1,94 @@
+"""Letting go at a placement (gfc.sim.skills.placing): the fingers open only a little off the
+object, and a symmetric block is put down turned where its fingers would meet a neighbour."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gfc.geometry import pose7_to_matrix, pose9_to_matrix
+from gfc.plan.schema import PlanRequest
+from gfc.sim.execute import execute_plan
+from gfc.sim.skills.placing import RELEASE_TRAVEL
+from gfc.tasks.base import TABLE_Z, pose7, robots_json
+from gfc.tasks.single_arm import block_grasp, block_in_box
+
+BLOCK = 0.05  # m, the block's size
+BOX = pose7(0.48, -0.12, TABLE_Z, 0.0)
+
+
+def _plan(neighbour_offset: np.ndarray) -> tuple[PlanRequest, list[np.ndarray]]:
+    """Pick ``block`` from the table and place it in the box; ``neighbour`` rests in the box at
+    ``neighbour_offset`` (box frame, m) from the placement."""
+    grasp, placement = block_grasp(), block_in_box(0.0, 0.0)
+    neighbour = placement[:3] + neighbour_offset
+    plan = PlanRequest.model_validate(
+        {
+            "scene": {
+                "robots": robots_json(),
+                "objects": [
+                    {"name": "box", "kind": "box", "pose": BOX, "fixed": True},
+                    {"name": "block", "kind": "block", "pose": pose7(0.45, -0.46, TABLE_Z)},
+                    {
+                        "name": "neighbour",
+                        "kind": "block",
+                        "pose": [float(v) for v in (pose7_to_matrix(BOX) @ [*neighbour, 1.0])[:3]]
+                        + [0, 0, 0, 1],
+                    },
+                ],
+            },
+            "skeleton": [
+                {"skill": "pick", "robot": "right", "object": "block"},
+                {"skill": "place", "robot": "right", "object": "block", "target": "box"},
+            ],
+        }
+    )
+    return plan, [grasp, placement]
+
+
+def _finger_axis(actions: list[np.ndarray]) -> np.ndarray:
+    """The commanded hand's finger axis (its y axis) at the placement, box frame (xy)."""
+    grasp, placement = actions
+    hand = pose9_to_matrix(placement) @ pose9_to_matrix(grasp)
+    axis: np.ndarray = hand[:2, 1] / np.linalg.norm(hand[:2, 1])
+    return axis
+
+
+@pytest.mark.slow
+def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour() -> None:
+    """The neighbour sits 1.2 cm from the placed block along the commanded fingers' axis: a
+    finger (about 1 cm thick) opening beside it would press into it. The executor puts the
+    cube down turned by a quarter turn (the same footprint), fingers along the free axis, lets
+    go with the fingers RELEASE_TRAVEL off the block, and the neighbour stays where it was."""
+    _, actions = _plan(np.zeros(3))
+    axis = _finger_axis(actions)
+    offset = np.array([*(axis * (BLOCK + 0.012)), 0.0])
+    plan, actions = _plan(offset)
+    outcome = execute_plan(plan, actions, seed=0)
+    assert outcome.success, outcome.steps[-1].reason
+    place = outcome.steps[-1]
+    hand = pose7_to_matrix(place.poses["right"])
+    box = pose7_to_matrix(BOX)
+    hand_axis = (np.linalg.inv(box) @ hand)[:2, 1]
+    turn = math.degrees(math.acos(min(1.0, abs(float(hand_axis @ axis)) / np.linalg.norm(hand_axis))))
+    assert turn > 80.0, f"the fingers stayed along the neighbour's axis ({turn:.0f} deg turned)"
+    start = outcome.steps[0].poses["neighbour"]
+    assert np.linalg.norm(np.subtract(place.poses["neighbour"][:3], start[:3])) < 0.003
+    # Let go a little: the block's width and RELEASE_TRAVEL a side, not the 8 cm full opening.
+    assert place.grippers["right"] < BLOCK + 2 * RELEASE_TRAVEL + 0.01
+
+
+@pytest.mark.slow
+def test_a_placement_with_room_for_the_fingers_is_put_down_as_commanded() -> None:
+    _, actions = _plan(np.zeros(3))
+    axis = _finger_axis(actions)
+    across = np.array([-axis[1], axis[0]])  # the neighbour beside it, off the fingers' axis
+    plan, actions = _plan(np.array([*(across * (BLOCK + 0.012)), 0.0]))
+    outcome = execute_plan(plan, actions, seed=0)
+    assert outcome.success, outcome.steps[-1].reason
+    hand_axis = (np.linalg.inv(pose7_to_matrix(BOX)) @ pose7_to_matrix(outcome.steps[-1].poses["right"]))[
+        :2, 1
+    ]
+    assert abs(float(hand_axis @ axis)) / np.linalg.norm(hand_axis) > math.cos(math.radians(10.0))

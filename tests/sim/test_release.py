@@ -10,8 +10,12 @@ import pytest
 
 from gfc.geometry import pose7_to_matrix, pose9_to_matrix
 from gfc.plan.schema import PlanRequest
+from gfc.sim import control
 from gfc.sim.execute import execute_plan
+from gfc.sim.panda import FINGER_MAX
+from gfc.sim.skills import placing
 from gfc.sim.skills.placing import RELEASE_TRAVEL
+from gfc.sim.world import World
 from gfc.tasks.base import TABLE_Z, pose7, robots_json
 from gfc.tasks.single_arm import block_grasp, block_in_box
 
@@ -57,7 +61,9 @@ def _finger_axis(actions: list[np.ndarray]) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour() -> None:
+def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """The neighbour sits 1.2 cm from the placed block along the commanded fingers' axis: a
     finger (about 1 cm thick) opening beside it would press into it. The executor puts the
     cube down turned by a quarter turn (the same footprint), fingers along the free axis, lets
@@ -66,6 +72,13 @@ def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour()
     axis = _finger_axis(actions)
     offset = np.array([*(axis * (BLOCK + 0.012)), 0.0])
     plan, actions = _plan(offset)
+    releases: list[float] = []
+
+    def open_gripper(world: World, robot: str, steps: int = 60, finger: float = FINGER_MAX) -> None:
+        releases.append(finger)
+        control.open_gripper(world, robot, steps, finger)
+
+    monkeypatch.setattr(placing, "open_gripper", open_gripper)
     outcome = execute_plan(plan, actions, seed=0)
     assert outcome.success, outcome.steps[-1].reason
     place = outcome.steps[-1]
@@ -76,8 +89,11 @@ def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour()
     assert turn > 80.0, f"the fingers stayed along the neighbour's axis ({turn:.0f} deg turned)"
     start = outcome.steps[0].poses["neighbour"]
     assert np.linalg.norm(np.subtract(place.poses["neighbour"][:3], start[:3])) < 0.003
-    # Let go a little: the block's width and RELEASE_TRAVEL a side, not the 8 cm full opening.
-    assert place.grippers["right"] < BLOCK + 2 * RELEASE_TRAVEL + 0.01
+    # Let go a little (the block's width and RELEASE_TRAVEL a side, not 4 cm a finger), then,
+    # clear of the box after the retreat, open fully.
+    assert releases[0] < BLOCK / 2 + RELEASE_TRAVEL + 0.01
+    assert releases[-1] == FINGER_MAX
+    assert place.grippers["right"] > 0.07
 
 
 @pytest.mark.slow

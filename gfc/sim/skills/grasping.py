@@ -6,6 +6,7 @@ from gfc.geometry import FloatArray, pose9_to_matrix
 from gfc.plan.schema import Step
 from gfc.sim.control import close_gripper, open_gripper
 from gfc.sim.outcome import FailureType, SkillFailure
+from gfc.sim.panda import FINGER_MAX
 from gfc.sim.skills.motions import (
     APPROACH,
     LIFT,
@@ -14,6 +15,7 @@ from gfc.sim.skills.motions import (
     check_grasp_on_object,
     ee,
     first_reachable,
+    hands_clear_first,
     held_offset_error,
     reach,
     require_free,
@@ -56,7 +58,9 @@ def pick(ctx: SkillContext, step: Step, action: FloatArray) -> str:
         lifted = translated(world_from_grasp, [0.0, 0.0, LIFT])
         reach(ctx, robot, pre_grasp(world_from_grasp), f"the pre-grasp of {obj}", [world_from_grasp, lifted])
 
-    world_from_grasp = first_reachable(grasps, approach)
+    # The open hand must not come down on something beside the object (the rack's bar over a
+    # block in front of it): a clear equivalent grasp goes first.
+    world_from_grasp = first_reachable(hands_clear_first(ctx, robot, obj, grasps, FINGER_MAX), approach)
     straight(ctx, robot, world_from_grasp, f"the grasp pose of {obj}")
     z_before = object_matrix(world.physics, obj)[2, 3]
     if close_gripper(world, robot, obj) is None:

@@ -3,6 +3,7 @@ straight line, and the geometric checks that turn into failure type 1."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Callable, Sequence
@@ -356,3 +357,36 @@ def first_reachable(poses: Sequence[FloatArray], attempt: Callable[[FloatArray],
         return pose
     assert first is not None
     raise first
+
+
+def hands_clear_first(
+    ctx: SkillContext, robot: str, obj: str, hands: Sequence[FloatArray], finger: float
+) -> list[FloatArray]:
+    """Equivalent hand poses (the commanded one first; ``symmetries``) reordered so that those
+    where the arm, its fingers at ``finger`` (m a finger), touches nothing but ``obj`` come first,
+    each group in the given order; where none is clear the order is kept. A commanded pose that
+    is clear stays first, so that execution is unchanged; one whose hand would meet something
+    gives way to a turned equivalent (a block is the same block turned by 90 degrees): at a
+    placement, fingers opening into the box wall or a neighbour (ADR 0010); at a grasp, the open
+    hand coming down on the rack's bar. It sees the world as it is, neighbours a few millimetres
+    off their plan included. Its IK draws on its own random stream, so checking leaves the
+    execution's random draws as they were."""
+    if len(hands) < 2:
+        return list(hands)
+    sync_mirror(ctx.world)
+    check = make_collision_fn(
+        ctx.world, [robot], fingers={robot: 2 * finger}, allowed=frozenset({(robot, obj)})
+    )
+    own = dataclasses.replace(ctx, rng=np.random.default_rng(0), notes=[])
+
+    def clear(world_from_ee: FloatArray) -> bool:
+        try:
+            free_ik(own, robot, world_from_ee, check, "the check of the hand")
+        except SkillFailure:
+            return False
+        return True
+
+    verdicts = [clear(hand) for hand in hands]
+    return [h for h, ok in zip(hands, verdicts, strict=True) if ok] + [
+        h for h, ok in zip(hands, verdicts, strict=True) if not ok
+    ]

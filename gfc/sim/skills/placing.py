@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Sequence
 
 import numpy as np
 import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.plan.schema import Step
-from gfc.sim.collision import make_collision_fn
 from gfc.sim.control import open_gripper
 from gfc.sim.outcome import FailureType, SkillFailure
 from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX
@@ -19,7 +16,7 @@ from gfc.sim.skills.motions import (
     SkillContext,
     ee,
     first_reachable,
-    free_ik,
+    hands_clear_first,
     reach,
     require_holding,
     straight,
@@ -27,7 +24,7 @@ from gfc.sim.skills.motions import (
     translated,
     upright_first,
 )
-from gfc.sim.world import object_matrix, sync_mirror
+from gfc.sim.world import object_matrix
 from gfc.sim.world import step as physics_step
 
 PLACE_APPROACH = 0.08  # m above the placement, where the straight descent starts
@@ -56,12 +53,13 @@ def place(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     # The object at the commanded pose, or at one the same as it (a block turned over): hands.
     hands = upright_first([commanded @ same @ invert(ee_from_object) for same in symmetries(world, obj)])
     release = release_finger(ctx, robot)
-    world_from_ee = first_reachable(fingers_clear_first(ctx, robot, obj, hands, release), descend_from_above)
+    world_from_ee = first_reachable(hands_clear_first(ctx, robot, obj, hands, release), descend_from_above)
     world_from_goal = world_from_ee @ ee_from_object
     straight(ctx, robot, world_from_ee, f"the placement of {obj}")
     open_gripper(world, robot, finger=release)
     up = translated(ee(ctx, robot), [0.0, 0.0, PLACE_APPROACH])
     straight(ctx, robot, up, "the retreat", finger=release)
+    open_gripper(world, robot)  # clear of everything now: the hand ends open, as it always did
     physics_step(world, SETTLE_STEPS)
     rest = object_matrix(world.physics, obj)
     error = float(np.linalg.norm(rest[:3, 3] - world_from_goal[:3, 3]))
@@ -83,34 +81,3 @@ def release_finger(ctx: SkillContext, robot: str) -> float:
         ctx.world.physics.robots[robot].body, list(FINGER_JOINTS), physicsClientId=ctx.world.client
     )
     return min(FINGER_MAX, max(float(s[0]) for s in states) + RELEASE_TRAVEL)
-
-
-def fingers_clear_first(
-    ctx: SkillContext, robot: str, obj: str, hands: Sequence[FloatArray], finger: float
-) -> list[FloatArray]:
-    """The hand poses (the commanded one first, then equivalent ones) reordered so that those
-    where the hand, its fingers open to ``finger`` to let go, touches nothing but ``obj`` come
-    first, each group in the given order. A commanded pose that is clear stays first (that
-    execution is unchanged); one whose fingers would meet the box wall or a neighbour gives way
-    to a turned equivalent (a block is the same block turned by 90 degrees) whose fingers point
-    where there is room. Where none is clear the order is kept. Its IK draws on its own random
-    stream, so checking leaves the execution's random draws as they were."""
-    if len(hands) < 2:
-        return list(hands)
-    sync_mirror(ctx.world)
-    check = make_collision_fn(
-        ctx.world, [robot], fingers={robot: 2 * finger}, allowed=frozenset({(robot, obj)})
-    )
-    own = dataclasses.replace(ctx, rng=np.random.default_rng(0), notes=[])
-
-    def clear(world_from_ee: FloatArray) -> bool:
-        try:
-            free_ik(own, robot, world_from_ee, check, "the release")
-        except SkillFailure:
-            return False
-        return True
-
-    verdicts = [clear(hand) for hand in hands]
-    return [h for h, ok in zip(hands, verdicts, strict=True) if ok] + [
-        h for h, ok in zip(hands, verdicts, strict=True) if not ok
-    ]

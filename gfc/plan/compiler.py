@@ -120,7 +120,7 @@ REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energ
 # 4-9 mm off (the release, and earlier blocks' errors add up), so the plan needs more than the
 # goal's 5 mm. With 6 mm at a 5 mm sigma the top-1 plans of Constrained Packing T3 (seeds 0-9,
 # 32 candidates) overlapped by 2 mm (median of the closest pair); with 9 mm at 2 mm they keep
-# 5.9 mm (/tmp-free command in docs/adr/0010).
+# 5.9 mm (scripts/placement_gaps.py; ADR 0010).
 APART_TOLERANCE = 0.002  # m
 PLACED_CLEARANCE = 0.009  # m
 # By a target without an opening (the rack): unchanged since session 12, measured at 100 trials.

@@ -72,10 +72,15 @@ def arm_joints(client: int, robot: Panda) -> FloatArray:
     return np.array([s[0] for s in states])
 
 
+def finger_positions(client: int, robot: Panda) -> tuple[float, float]:
+    """Each finger's opening in metres (0 to FINGER_MAX); they move independently."""
+    left, right = pb.getJointStates(robot.body, list(FINGER_JOINTS), physicsClientId=client)
+    return float(left[0]), float(right[0])
+
+
 def finger_opening(client: int, robot: Panda) -> float:
     """Distance between the finger pads in metres (0 to 0.08)."""
-    states = pb.getJointStates(robot.body, list(FINGER_JOINTS), physicsClientId=client)
-    return float(sum(s[0] for s in states))
+    return sum(finger_positions(client, robot))
 
 
 def ee_matrix(client: int, robot: Panda) -> FloatArray:

@@ -5,13 +5,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.plan.schema import Step
 from gfc.sim.control import open_gripper
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX
+from gfc.sim.panda import FINGER_MAX, finger_positions
 from gfc.sim.skills.motions import (
     SkillContext,
     ee,
@@ -77,7 +76,5 @@ def place(ctx: SkillContext, step: Step, action: FloatArray) -> str:
 def release_finger(ctx: SkillContext, robot: str) -> float:
     """The finger command (m a finger) that lets go of what the robot holds: ``RELEASE_TRAVEL``
     beyond the wider-open finger now."""
-    states = pb.getJointStates(
-        ctx.world.physics.robots[robot].body, list(FINGER_JOINTS), physicsClientId=ctx.world.client
-    )
-    return min(FINGER_MAX, max(float(s[0]) for s in states) + RELEASE_TRAVEL)
+    fingers = finger_positions(ctx.world.client, ctx.world.physics.robots[robot])
+    return min(FINGER_MAX, max(fingers) + RELEASE_TRAVEL)

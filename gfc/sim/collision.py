@@ -14,17 +14,18 @@ a full cup.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pybullet as pb
 
 from gfc.geometry import FloatArray
-from gfc.sim.panda import ARM_DOF, HAND_LINKS, ee_matrix, set_joints
+from gfc.sim.panda import ARM_DOF, FINGER_JOINTS, HAND_LINKS, ee_matrix, set_joints
 from gfc.sim.world import World, place_in_mirror
 
 PENETRATION_TOLERANCE = 0.002
+FINGER_LANDING = 0.001  # m: an open finger this deep in the object at a grasp lands on it
 UPRIGHT_TILT = math.radians(25.0)  # rad a carried container with contents may tilt
 # Link pairs of one arm that can collide: two or more joints apart (link -1 is the base; link 7
 # is the massless flange, fixed to link 6 and the hand, so link 6 and the hand are neighbours;
@@ -149,3 +150,22 @@ def first_collision_on_segment(
         if hit is not None:
             return hit
     return None
+
+
+def finger_depth(world: World, robot: str, objects: Iterable[str]) -> tuple[float, str]:
+    """How deep (m, 0 when clear) either finger of ``robot`` reaches into the deepest of
+    ``objects`` on the planning mirror as it stands, and which one. An open hand at a grasp
+    with a finger inside the object comes down on its top instead of around it; a hand at a
+    placement with a finger inside a neighbour or a wall jams there (ADR 0011)."""
+    mirror = world.mirror
+    body = mirror.robots[robot].body
+    deepest, where = 0.0, ""
+    for name in objects:
+        target = mirror.objects[name].body
+        for finger in FINGER_JOINTS:
+            for point in pb.getClosestPoints(
+                body, target, 0.0, linkIndexA=finger, physicsClientId=mirror.client
+            ):
+                if -point[8] > deepest:
+                    deepest, where = -point[8], name
+    return deepest, where

@@ -28,6 +28,7 @@ LOWER_LIMITS = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -
 UPPER_LIMITS = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 FINGER_FORCE = 40.0
+FINGER_GEAR_FORCE = 50.0  # N: the coupling between the fingers (stronger than one finger's drive)
 # Stiff joint servos: dense waypoints are tracked within a few millimetres at the end effector.
 POSITION_GAIN = 1.0
 
@@ -53,10 +54,32 @@ def load_panda(client: int, name: str, base: list[float], yaw: float) -> Panda:
         # High finger friction as on real rubber pads; torsional friction keeps long objects
         # from swinging about the finger axis.
         pb.changeDynamics(body, finger, lateralFriction=1.5, spinningFriction=0.01, physicsClientId=client)
+    couple_fingers(client, body)
     robot = Panda(name, body, world_from_base)
     set_joints(client, robot, np.asarray(HOME_JOINTS), FINGER_MAX)
     hold_position(client, robot, np.asarray(HOME_JOINTS), FINGER_MAX)
     return robot
+
+
+def couple_fingers(client: int, body: int) -> None:
+    """Tie the two finger joints to move as one, as the real Panda hand's single drive does.
+
+    Independent fingers let a held object sit off-centre (one finger at its 4 cm limit, the
+    other squeezing), and at release the object springs sideways out of the squeeze (ADR 0011).
+    The gear makes the closing fingers push the object to the hand's centre instead.
+    """
+    gear = pb.createConstraint(
+        body,
+        FINGER_JOINTS[0],
+        body,
+        FINGER_JOINTS[1],
+        jointType=pb.JOINT_GEAR,
+        jointAxis=[1.0, 0.0, 0.0],
+        parentFramePosition=[0.0, 0.0, 0.0],
+        childFramePosition=[0.0, 0.0, 0.0],
+        physicsClientId=client,
+    )
+    pb.changeConstraint(gear, gearRatio=-1.0, erp=0.1, maxForce=FINGER_GEAR_FORCE, physicsClientId=client)
 
 
 def set_joints(client: int, robot: Panda, arm: FloatArray, finger: float) -> None:
@@ -73,7 +96,7 @@ def arm_joints(client: int, robot: Panda) -> FloatArray:
 
 
 def finger_positions(client: int, robot: Panda) -> tuple[float, float]:
-    """Each finger's opening in metres (0 to FINGER_MAX); they move independently."""
+    """Each finger's opening in metres (0 to FINGER_MAX); geared to be about equal."""
     left, right = pb.getJointStates(robot.body, list(FINGER_JOINTS), physicsClientId=client)
     return float(left[0]), float(right[0])
 

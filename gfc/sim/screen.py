@@ -36,7 +36,13 @@ import pybullet as pb
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import STROKE_SIGNS, ObjectKind, object_kind
 from gfc.plan.schema import Inside, PlanRequest, Step
-from gfc.sim.collision import Carried, CollisionFn, make_collision_fn
+from gfc.sim.collision import (
+    FINGER_LANDING,
+    Carried,
+    CollisionFn,
+    finger_depth,
+    make_collision_fn,
+)
 from gfc.sim.control import cartesian_joint_path, tracks_lines
 from gfc.sim.execute import stages
 from gfc.sim.goals import check_predicate_on, goal_satisfied_on
@@ -511,6 +517,16 @@ class Screen:
         mirror = self.world.mirror
         panda, body = mirror.robots[robot], mirror.objects[obj].body
         place_in_mirror(mirror, obj, state.poses[obj])
+        # The open hand comes straight down to the grasp: a finger already inside the object
+        # there lands on its top, and the fingers close on an off-centre grip or (geared) not
+        # at all. Only the commanded grasp is tried; the executor may turn a cube's grasp a
+        # quarter turn where that one lands (ADR 0011).
+        set_joints(mirror.client, panda, state.joints[robot], FINGER_MAX)
+        depth, _ = finger_depth(self.world, robot, [obj])
+        if depth > FINGER_LANDING:
+            raise _Infeasible(
+                i, f"{robot}: the open fingers would come down on {obj} ({depth * 1000:.0f} mm into it)"
+            )
         missing = set(FINGER_JOINTS)
         for position in CLOSING:
             set_joints(mirror.client, panda, state.joints[robot], position)

@@ -122,12 +122,25 @@ def test_a_pour_from_below_the_rim_fails_at_the_pour() -> None:
 
 
 def test_a_grasp_beside_the_object_fails_because_the_fingers_would_miss() -> None:
-    """The pot reference grasps its handle; 6 cm further out along the pot's y (the fingers'
-    closing direction) the open fingers straddle only air."""
-    verdict = _screen_shifted("pot_reorientation", 0, 1, 0.06)
+    """The pot reference grasps its handle; 8 cm further out along the pot's y (the fingers'
+    closing direction) the open fingers straddle only air. (At 6 cm one of them comes down on
+    the pot: the landing check of ADR 0011 says so first.)"""
+    verdict = _screen_shifted("pot_reorientation", 0, 1, 0.08)
     assert not verdict.feasible
     assert verdict.step == 0
     assert "the fingers would miss pot" in verdict.reason
+
+
+def test_a_grasp_whose_open_finger_comes_down_on_the_block_fails_at_the_grasp() -> None:
+    """A block grasped 2 cm off its centre along the fingers: the open finger (4 cm out) is
+    5 mm inside the block's side, so the hand would land on the block's top (ADR 0011); 6 mm
+    off, it comes down beside it and closes on it."""
+    pick = _step_of("constrained_packing_t1", "pick")
+    verdict = _screen_shifted("constrained_packing_t1", pick, 1, 0.02)
+    assert not verdict.feasible
+    assert verdict.step == pick
+    assert "the open fingers would come down on block_0" in verdict.reason
+    assert _screen_shifted("constrained_packing_t1", pick, 1, 0.006).feasible
 
 
 def test_missing_actions_are_infeasible_and_wrong_lengths_are_errors() -> None:

@@ -60,7 +60,9 @@ def pick(ctx: SkillContext, step: Step, action: FloatArray) -> str:
 
     # The open hand must not come down on something beside the object (the rack's bar over a
     # block in front of it): a clear equivalent grasp goes first.
-    world_from_grasp = first_reachable(hands_clear_first(ctx, robot, obj, grasps, FINGER_MAX), approach)
+    world_from_grasp = first_reachable(
+        hands_clear_first(ctx, robot, obj, grasps, FINGER_MAX, around_object=True), approach
+    )
     straight(ctx, robot, world_from_grasp, f"the grasp pose of {obj}")
     z_before = object_matrix(world.physics, obj)[2, 3]
     if close_gripper(world, robot, obj) is None:

@@ -13,7 +13,14 @@ import numpy as np
 
 from gfc.geometry import FloatArray, invert
 from gfc.kinds import object_kind
-from gfc.sim.collision import UPRIGHT_TILT, Carried, CollisionFn, make_collision_fn
+from gfc.sim.collision import (
+    FINGER_LANDING,
+    UPRIGHT_TILT,
+    Carried,
+    CollisionFn,
+    finger_depth,
+    make_collision_fn,
+)
 from gfc.sim.control import (
     cartesian_joint_path,
     execute_paths,
@@ -25,7 +32,7 @@ from gfc.sim.control import (
 from gfc.sim.ik import solve_ik
 from gfc.sim.motion import plan_motion
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, arm_joints, ee_matrix
+from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, arm_joints, ee_matrix, set_joints
 from gfc.sim.world import World, gripper_openings, object_matrix, sync_mirror
 from gfc.skills.signatures import PICK_LIFT
 
@@ -360,7 +367,12 @@ def first_reachable(poses: Sequence[FloatArray], attempt: Callable[[FloatArray],
 
 
 def hands_clear_first(
-    ctx: SkillContext, robot: str, obj: str, hands: Sequence[FloatArray], finger: float
+    ctx: SkillContext,
+    robot: str,
+    obj: str,
+    hands: Sequence[FloatArray],
+    finger: float,
+    around_object: bool = False,
 ) -> list[FloatArray]:
     """Equivalent hand poses (the commanded one first; ``symmetries``) reordered so that those
     where the arm, its fingers at ``finger`` (m a finger), touches nothing but ``obj`` come first,
@@ -370,7 +382,12 @@ def hands_clear_first(
     placement, fingers opening into the box wall or a neighbour (ADR 0010); at a grasp, the open
     hand coming down on the rack's bar. It sees the world as it is, neighbours a few millimetres
     off their plan included. Its IK draws on its own random stream, so checking leaves the
-    execution's random draws as they were."""
+    execution's random draws as they were.
+
+    ``around_object`` (a grasp): the open fingers must also be around ``obj``, not in it. A
+    cube grasped 1 cm off its centre along the fingers has a finger come down on its top; the
+    same grasp turned a quarter turn has the offset across the fingers, and they close on the
+    cube's faces (ADR 0011)."""
     if len(hands) < 2:
         return list(hands)
     sync_mirror(ctx.world)
@@ -381,10 +398,13 @@ def hands_clear_first(
 
     def clear(world_from_ee: FloatArray) -> bool:
         try:
-            free_ik(own, robot, world_from_ee, check, "the check of the hand")
+            q = free_ik(own, robot, world_from_ee, check, "the check of the hand")
         except SkillFailure:
             return False
-        return True
+        if not around_object:
+            return True
+        set_joints(ctx.world.mirror.client, ctx.world.mirror.robots[robot], q, finger)
+        return finger_depth(ctx.world, robot, [obj])[0] <= FINGER_LANDING
 
     verdicts = [clear(hand) for hand in hands]
     return [h for h, ok in zip(hands, verdicts, strict=True) if ok] + [

@@ -517,13 +517,15 @@ class Screen:
         mirror = self.world.mirror
         panda, body = mirror.robots[robot], mirror.objects[obj].body
         place_in_mirror(mirror, obj, state.poses[obj])
-        # The open hand comes straight down to the grasp: a finger already inside the object
+        # The open hand comes straight down to the grasp: a finger already inside a block
         # there lands on its top, and the fingers close on an off-centre grip or (geared) not
         # at all. Only the commanded grasp is tried; the executor may turn a cube's grasp a
-        # quarter turn where that one lands (ADR 0011).
+        # quarter turn where that one lands (ADR 0011). Blocks only: on a lid's knob the
+        # fingertips rest on the plate below the knob and the grip works (Hammer Place).
         set_joints(mirror.client, panda, state.joints[robot], FINGER_MAX)
         depth, _ = finger_depth(self.world, robot, [obj])
-        if depth > FINGER_LANDING:
+        kind = object_kind(mirror.objects[obj].kind)
+        if kind.quarter_turn_symmetric and depth > FINGER_LANDING:
             raise _Infeasible(
                 i, f"{robot}: the open fingers would come down on {obj} ({depth * 1000:.0f} mm into it)"
             )

@@ -28,7 +28,7 @@ LOWER_LIMITS = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -
 UPPER_LIMITS = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 FINGER_FORCE = 40.0
-FINGER_GEAR_FORCE = 50.0  # N: the coupling between the fingers (stronger than one finger's drive)
+FINGER_GEAR_FORCE = 20.0  # N: half a finger's drive: centres a free object, yields to a held one
 # Stiff joint servos: dense waypoints are tracked within a few millimetres at the end effector.
 POSITION_GAIN = 1.0
 
@@ -67,6 +67,11 @@ def couple_fingers(client: int, body: int) -> None:
     Independent fingers let a held object sit off-centre (one finger at its 4 cm limit, the
     other squeezing), and at release the object springs sideways out of the squeeze (ADR 0011).
     The gear makes the closing fingers push the object to the hand's centre instead.
+
+    It is weaker than one finger's drive: the real arms give a little where ours hold rigidly,
+    and a gear stronger than the drive (50 N) stopped both fingers as soon as one met an object
+    that cannot move to the centre (a handle the other hand holds, the pot), so the grasp
+    never closed (Hammer Place and Pot Reorientation hand-overs, ADR 0011).
     """
     gear = pb.createConstraint(
         body,

@@ -14,8 +14,7 @@ from gfc.sim.execute import execute_plan
 from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX, command_fingers, finger_positions
 from gfc.sim.skills import placing
 from gfc.sim.world import World, step
-from gfc.tasks.base import TABLE_Z, pose7, robots_json
-from gfc.tasks.single_arm import block_grasp, block_in_box
+from tests.sim.block_to_box import block_to_box_plan
 
 
 def test_fingers_set_apart_end_level(hammer_place_world: tuple[World, PlanRequest]) -> None:
@@ -33,23 +32,7 @@ def test_fingers_set_apart_end_level(hammer_place_world: tuple[World, PlanReques
 def _pick_and_place(grasp_shift: float) -> tuple[bool, str, tuple[float, float]]:
     """Pick a block with the hand ``grasp_shift`` m off its centre along the fingers' axis and
     place it in the box; returns success, the last step's reason and the fingers at release."""
-    box = pose7(0.48, -0.12, TABLE_Z, 0.0)
-    plan = PlanRequest.model_validate(
-        {
-            "scene": {
-                "robots": robots_json(),
-                "objects": [
-                    {"name": "box", "kind": "box", "pose": box, "fixed": True},
-                    {"name": "block", "kind": "block", "pose": pose7(0.45, -0.46, TABLE_Z)},
-                ],
-            },
-            "skeleton": [
-                {"skill": "pick", "robot": "right", "object": "block"},
-                {"skill": "place", "robot": "right", "object": "block", "target": "box"},
-            ],
-        }
-    )
-    grasp = block_grasp()
+    plan, (grasp, placement) = block_to_box_plan()
     grasp[1] += grasp_shift  # the grasp's translation, y: along the fingers
     fingers: list[tuple[float, float]] = []
 
@@ -59,7 +42,7 @@ def _pick_and_place(grasp_shift: float) -> tuple[bool, str, tuple[float, float]]
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(placing, "open_gripper", open_gripper)
-        outcome = execute_plan(plan, [grasp, block_in_box(0.0, 0.0)], seed=0)
+        outcome = execute_plan(plan, [grasp, placement], seed=0)
     return outcome.success, outcome.steps[-1].reason, fingers[0]
 
 

@@ -9,47 +9,12 @@ import numpy as np
 import pytest
 
 from gfc.geometry import pose7_to_matrix, pose9_to_matrix
-from gfc.plan.schema import PlanRequest
 from gfc.sim import control
-from gfc.sim.execute import execute_plan
 from gfc.sim.panda import FINGER_MAX
 from gfc.sim.skills import placing
 from gfc.sim.skills.placing import RELEASE_TRAVEL
 from gfc.sim.world import World
-from gfc.tasks.base import TABLE_Z, pose7, robots_json
-from gfc.tasks.single_arm import block_grasp, block_in_box
-
-BLOCK = 0.05  # m, the block's size
-BOX = pose7(0.48, -0.12, TABLE_Z, 0.0)
-
-
-def _plan(neighbour_offset: np.ndarray) -> tuple[PlanRequest, list[np.ndarray]]:
-    """Pick ``block`` from the table and place it in the box; ``neighbour`` rests in the box at
-    ``neighbour_offset`` (box frame, m) from the placement."""
-    grasp, placement = block_grasp(), block_in_box(0.0, 0.0)
-    neighbour = placement[:3] + neighbour_offset
-    plan = PlanRequest.model_validate(
-        {
-            "scene": {
-                "robots": robots_json(),
-                "objects": [
-                    {"name": "box", "kind": "box", "pose": BOX, "fixed": True},
-                    {"name": "block", "kind": "block", "pose": pose7(0.45, -0.46, TABLE_Z)},
-                    {
-                        "name": "neighbour",
-                        "kind": "block",
-                        "pose": [float(v) for v in (pose7_to_matrix(BOX) @ [*neighbour, 1.0])[:3]]
-                        + [0, 0, 0, 1],
-                    },
-                ],
-            },
-            "skeleton": [
-                {"skill": "pick", "robot": "right", "object": "block"},
-                {"skill": "place", "robot": "right", "object": "block", "target": "box"},
-            ],
-        }
-    )
-    return plan, [grasp, placement]
+from tests.sim.block_to_box import BLOCK, BOX, block_to_box_plan
 
 
 def _finger_axis(actions: list[np.ndarray]) -> np.ndarray:
@@ -68,10 +33,10 @@ def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour(
     finger (about 1 cm thick) opening beside it would press into it. The executor puts the
     cube down turned by a quarter turn (the same footprint), fingers along the free axis, lets
     go with the fingers RELEASE_TRAVEL off the block, and the neighbour stays where it was."""
-    _, actions = _plan(np.zeros(3))
+    _, actions = block_to_box_plan(np.zeros(3))
     axis = _finger_axis(actions)
     offset = np.array([*(axis * (BLOCK + 0.012)), 0.0])
-    plan, actions = _plan(offset)
+    plan, actions = block_to_box_plan(offset)
     releases: list[float] = []
 
     def open_gripper(world: World, robot: str, steps: int = 60, finger: float = FINGER_MAX) -> None:
@@ -79,7 +44,7 @@ def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour(
         control.open_gripper(world, robot, steps, finger)
 
     monkeypatch.setattr(placing, "open_gripper", open_gripper)
-    outcome = execute_plan(plan, actions, seed=0)
+    outcome = executeblock_to_box_plan(plan, actions, seed=0)
     assert outcome.success, outcome.steps[-1].reason
     place = outcome.steps[-1]
     hand = pose7_to_matrix(place.poses["right"])
@@ -98,11 +63,11 @@ def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour(
 
 @pytest.mark.slow
 def test_a_placement_with_room_for_the_fingers_is_put_down_as_commanded() -> None:
-    _, actions = _plan(np.zeros(3))
+    _, actions = block_to_box_plan(np.zeros(3))
     axis = _finger_axis(actions)
     across = np.array([-axis[1], axis[0]])  # the neighbour beside it, off the fingers' axis
-    plan, actions = _plan(np.array([*(across * (BLOCK + 0.012)), 0.0]))
-    outcome = execute_plan(plan, actions, seed=0)
+    plan, actions = block_to_box_plan(np.array([*(across * (BLOCK + 0.012)), 0.0]))
+    outcome = executeblock_to_box_plan(plan, actions, seed=0)
     assert outcome.success, outcome.steps[-1].reason
     hand_axis = (np.linalg.inv(pose7_to_matrix(BOX)) @ pose7_to_matrix(outcome.steps[-1].poses["right"]))[
         :2, 1

@@ -10,6 +10,7 @@ import pytest
 
 from gfc.geometry import pose7_to_matrix, pose9_to_matrix
 from gfc.sim import control
+from gfc.sim.execute import execute_plan
 from gfc.sim.panda import FINGER_MAX
 from gfc.sim.skills import placing
 from gfc.sim.skills.placing import RELEASE_TRAVEL
@@ -44,7 +45,7 @@ def test_a_block_is_put_down_turned_where_the_fingers_would_meet_its_neighbour(
         control.open_gripper(world, robot, steps, finger)
 
     monkeypatch.setattr(placing, "open_gripper", open_gripper)
-    outcome = executeblock_to_box_plan(plan, actions, seed=0)
+    outcome = execute_plan(plan, actions, seed=0)
     assert outcome.success, outcome.steps[-1].reason
     place = outcome.steps[-1]
     hand = pose7_to_matrix(place.poses["right"])
@@ -67,7 +68,7 @@ def test_a_placement_with_room_for_the_fingers_is_put_down_as_commanded() -> Non
     axis = _finger_axis(actions)
     across = np.array([-axis[1], axis[0]])  # the neighbour beside it, off the fingers' axis
     plan, actions = block_to_box_plan(np.array([*(across * (BLOCK + 0.012)), 0.0]))
-    outcome = executeblock_to_box_plan(plan, actions, seed=0)
+    outcome = execute_plan(plan, actions, seed=0)
     assert outcome.success, outcome.steps[-1].reason
     hand_axis = (np.linalg.inv(pose7_to_matrix(BOX)) @ pose7_to_matrix(outcome.steps[-1].poses["right"]))[
         :2, 1

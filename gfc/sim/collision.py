@@ -14,7 +14,7 @@ a full cup.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -152,20 +152,15 @@ def first_collision_on_segment(
     return None
 
 
-def finger_depth(world: World, robot: str, objects: Iterable[str]) -> tuple[float, str]:
-    """How deep (m, 0 when clear) either finger of ``robot`` reaches into the deepest of
-    ``objects`` on the planning mirror as it stands, and which one. An open hand at a grasp
-    with a finger inside the object comes down on its top instead of around it; a hand at a
-    placement with a finger inside a neighbour or a wall jams there (ADR 0011)."""
+def finger_depth(world: World, robot: str, obj: str) -> float:
+    """How deep (m, 0 when clear) either finger of ``robot`` reaches into ``obj`` on the planning
+    mirror as it stands: an open hand at a grasp with a finger inside the object comes down on
+    its top instead of around it (ADR 0011)."""
     mirror = world.mirror
-    body = mirror.robots[robot].body
-    deepest, where = 0.0, ""
-    for name in objects:
-        target = mirror.objects[name].body
-        for finger in FINGER_JOINTS:
-            for point in pb.getClosestPoints(
-                body, target, 0.0, linkIndexA=finger, physicsClientId=mirror.client
-            ):
-                if -point[8] > deepest:
-                    deepest, where = -point[8], name
-    return deepest, where
+    body, target = mirror.robots[robot].body, mirror.objects[obj].body
+    distances = [
+        point[8]
+        for finger in FINGER_JOINTS
+        for point in pb.getClosestPoints(body, target, 0.0, linkIndexA=finger, physicsClientId=mirror.client)
+    ]
+    return max(0.0, -min(distances, default=0.0))

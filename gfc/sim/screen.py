@@ -512,8 +512,9 @@ class Screen:
         finger must meet the object on its way in, or the object is not between them and the
         real fingers close on nothing (type 3 in execution).
 
-        Only that: a centring test (both fingers meeting at about the same opening) was tried
-        and dropped; on the pot's handles the working grasps are not the centred ones."""
+        Before that, for a block, the open fingers must not already be inside it (they would
+        land on its top). A centring test (both fingers meeting at about the same opening) was
+        tried and dropped; on the pot's handles the working grasps are not the centred ones."""
         mirror = self.world.mirror
         panda, body = mirror.robots[robot], mirror.objects[obj].body
         place_in_mirror(mirror, obj, state.poses[obj])
@@ -522,13 +523,13 @@ class Screen:
         # at all. Only the commanded grasp is tried; the executor may turn a cube's grasp a
         # quarter turn where that one lands (ADR 0011). Blocks only: on a lid's knob the
         # fingertips rest on the plate below the knob and the grip works (Hammer Place).
-        set_joints(mirror.client, panda, state.joints[robot], FINGER_MAX)
-        depth, _ = finger_depth(self.world, robot, [obj])
-        kind = object_kind(mirror.objects[obj].kind)
-        if kind.quarter_turn_symmetric and depth > FINGER_LANDING:
-            raise _Infeasible(
-                i, f"{robot}: the open fingers would come down on {obj} ({depth * 1000:.0f} mm into it)"
-            )
+        if object_kind(mirror.objects[obj].kind).quarter_turn_symmetric:
+            set_joints(mirror.client, panda, state.joints[robot], FINGER_MAX)
+            depth = finger_depth(self.world, robot, obj)
+            if depth > FINGER_LANDING:
+                raise _Infeasible(
+                    i, f"{robot}: the open fingers would come down on {obj} ({depth * 1000:.0f} mm into it)"
+                )
         missing = set(FINGER_JOINTS)
         for position in CLOSING:
             set_joints(mirror.client, panda, state.joints[robot], position)

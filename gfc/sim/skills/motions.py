@@ -404,7 +404,7 @@ def hands_clear_first(
         if not around_object:
             return True
         set_joints(ctx.world.mirror.client, ctx.world.mirror.robots[robot], q, finger)
-        return finger_depth(ctx.world, robot, [obj])[0] <= FINGER_LANDING
+        return finger_depth(ctx.world, robot, obj) <= FINGER_LANDING
 
     verdicts = [clear(hand) for hand in hands]
     return [h for h, ok in zip(hands, verdicts, strict=True) if ok] + [

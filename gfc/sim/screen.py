@@ -11,7 +11,8 @@ standing where its last screened pose left it. Nothing is stepped, nothing moves
 pass says "kinematically possible", not "succeeds". Physics (types 3: slips, resting poses) and
 motion planning between the poses are left to the simulator, except one cheap proxy for the
 commonest physics failure: at each grasp the fingers are closed kinematically and must both
-meet the object on their way in.
+meet the object on their way in; and at a pour, that the hand is not between source and target
+(``palm_clear``: the contents would pour onto it).
 
 Strike and pour have no action: their geometric preconditions (``aim_strike``, ``aim_pour``:
 the head over the nail, the lip over the cup) are checked on the screened poses, the same
@@ -61,7 +62,7 @@ from gfc.sim.skills.grasping import pre_grasp
 from gfc.sim.skills.motions import APPROACH, LIFT, aimed_home, backed_off, translated
 from gfc.sim.skills.moving import hand_for
 from gfc.sim.skills.placing import PLACE_APPROACH
-from gfc.sim.skills.terminal import aim_pour, aim_strike, tipping_poses
+from gfc.sim.skills.terminal import aim_pour, aim_strike, palm_clear, tipping_poses
 from gfc.sim.skills.tools import stroke_contact, stroke_poses
 from gfc.sim.world import World, build_world, object_matrix, place_in_mirror
 
@@ -373,6 +374,7 @@ class Screen:
                 aim_strike(kinds[0], state.poses[tool], kinds[1], state.poses[target], target)
             else:
                 aim = aim_pour(kinds[0], state.poses[tool], kinds[1], state.poses[target], tool, target)
+                palm_clear(aim, self._hand_of(state, step.robot), tool, target)
         except SkillFailure as exc:
             raise _Infeasible(i, exc.reason) from None
         if step.skill == "pour":

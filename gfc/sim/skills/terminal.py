@@ -41,6 +41,11 @@ POUR_MIN_CLEARANCE, POUR_MAX_CLEARANCE = 0.0, 0.06  # source bottom above the ta
 POUR_SHARE = 0.8  # fraction of the contents that must land in the target
 POUR_LIP_LOW = 0.02  # m: how low over the target's rim the lip comes while tipping
 POUR_SPEED = 0.5  # rad/s of the fastest joint: slow, so that the contents trickle out
+# Cosine of the angle between the holding hand's approach (horizontal part) and the pouring
+# direction, at least: below it the palm and fingers are between source and target and the
+# contents pour onto them (ADR 0013). Just below 0 (about a degree past side-on), so that a hand
+# side-on to the pour, as in the task's reference actions, passes.
+POUR_PALM_TOWARDS = -0.02
 
 
 @dataclass(frozen=True)
@@ -174,6 +179,26 @@ def aim_pour(
             f"{source_name}'s bottom is {clearance * 100:.1f} cm above {target_name}'s rim",
         )
     return PourAim(lip, direction, target_rim)
+
+
+def palm_clear(aim: PourAim, world_from_hand: FloatArray, source_name: str, target_name: str) -> None:
+    """Type 1 when the hand holding the source is on the target's side of it: tipped about its
+    lip, the source pours onto the palm and the fingers, not into the target. A physics proxy
+    the screen checks (the executor does not refuse such a pour; the simulator judges it).
+    Measured (ADR 0013, ``scripts/pour_palm_sides.py``): every GFC top-1 pour that spilled in
+    the trial logs of sessions 9-16 had the hand's approach pointing away from the target."""
+    approach = world_from_hand[:3, 2]
+    horizontal = float(np.linalg.norm(approach[:2]))
+    if horizontal < 1e-6:  # approached from above: the hand is over the source, on no side
+        return
+    towards = float(approach[:2] @ aim.direction[:2]) / horizontal
+    if towards < POUR_PALM_TOWARDS:
+        raise SkillFailure(
+            FailureType.METHOD,
+            f"the hand holding {source_name} is between it and {target_name} "
+            f"({math.degrees(math.acos(max(-1.0, towards))):.0f} degrees from the pouring direction): "
+            "the contents would pour onto it",
+        )
 
 
 def tipping_poses(aim: PourAim, start: FloatArray, rim_height: float) -> list[FloatArray]:

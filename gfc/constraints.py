@@ -154,6 +154,24 @@ def placed_reach(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch
     return reach([point], params)
 
 
+def palm_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """The hand holding a pour's source is not between it and the target: its approach axis
+    (horizontal part) does not point against the pouring direction, the source's rim centre to
+    the target's (``source_frame``, ``target_frame``). Inputs: (source node, target node, the
+    source's grasp action, a pose9 in its frame). The residual is how far the approach's
+    horizontal component along the pouring direction is below ``margin`` (an approach from
+    above has none: 0). (B, 1)"""
+    source, target, grasp = nodes
+    hand = _pose_of(source) @ pose9_to_transform(grasp[..., :9])  # (B, 4, 4)
+    approach = hand[..., :2, 2]  # (B, 2): the hand's z axis, into the object
+    towards = (_frame_point(target, params["target_frame"]) - _frame_point(source, params["source_frame"]))[
+        ..., :2
+    ]  # (B, 2)
+    direction = towards / towards.norm(dim=-1, keepdim=True).clamp_min(1e-6)
+    along = (approach * direction).sum(dim=-1, keepdim=True)  # (B, 1)
+    return torch.relu(float(params.get("margin", 0.0)) - along)
+
+
 def grasps_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """Two grasp actions on one object (pose9 in its frame) at least ``distance`` apart: room
     for both hands at a hand-over. (B, 1)"""
@@ -266,6 +284,7 @@ RESIDUALS: dict[str, Residual] = {
     "upright": upright,
     "reach": reach,
     "grasps_apart": grasps_apart,
+    "palm_clear": palm_clear,
     "stroke": stroke,
     "apart": apart,
     "placed_inside": placed_inside,

@@ -299,3 +299,41 @@ def test_placed_reach_carries_the_place_action_into_the_world_by_the_target() ->
     action = _node(0.1, 0.0, 0.0)
     r = constraints.placed_reach([target, action], {"shoulder": [0.0, 0.0, 0.0], "reach": 0.45})
     assert float(r) == pytest.approx(math.hypot(0.5, 0.1) - 0.45)
+
+
+def _grasp_tilted(pitch: float) -> torch.Tensor:
+    """A grasp pose9 at the source's rim whose approach (z axis) is turned by ``pitch`` about
+    the y axis: +pi/2 points along +x, -pi/2 along -x, pi straight down."""
+    c, s = math.cos(pitch), math.sin(pitch)
+    mat = np.eye(4)
+    mat[:3, :3] = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+    mat[:3, 3] = [0.0, 0.0, 0.08]
+    return torch.tensor(matrix_to_pose9(mat), dtype=torch.float64).unsqueeze(0)
+
+
+RIMS = {"source_frame": [0.0, 0.0, 0.1, 0, 0, 0, 1], "target_frame": [0.0, 0.0, 0.08, 0, 0, 0, 1]}
+
+
+@pytest.mark.parametrize(
+    ("pitch", "expected"),
+    [(math.pi / 2, 0.0), (-math.pi / 2, 1.0), (math.pi, 0.0), (-math.pi / 4, math.sqrt(0.5))],
+)
+def test_palm_clear_is_the_approach_against_the_pour(pitch: float, expected: float) -> None:
+    """Source at the origin, target 0.2 m along +x (the pour's direction): a hand approaching
+    along +x (behind the source) or from above is clear; one approaching along -x has its palm
+    between the two (residual 1, the whole approach against the pour); tilted 45 degrees, the
+    horizontal part's share."""
+    r = constraints.palm_clear([_node(0, 0, 0), _node(0.2, 0, 0), _grasp_tilted(pitch)], RIMS)
+    assert float(r) == pytest.approx(expected, abs=1e-9)
+
+
+@given(st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi))
+def test_palm_clear_turns_with_the_scene(scene_yaw: float, pitch: float) -> None:
+    """Turning source and target together about the vertical (the grasp is in the source's
+    frame, so it turns with it) leaves the residual as it was."""
+    c, s = math.cos(scene_yaw), math.sin(scene_yaw)
+    grasp = _grasp_tilted(pitch)
+    still = constraints.palm_clear([_node(0, 0, 0), _node(0.2, 0, 0), grasp], RIMS)
+    turned = constraints.palm_clear([_node(0, 0, 0, scene_yaw), _node(0.2 * c, 0.2 * s, 0), grasp], RIMS)
+    assert float(turned) == pytest.approx(float(still), abs=1e-9)
+    assert float(still) == pytest.approx(max(0.0, -math.sin(pitch)), abs=1e-9)

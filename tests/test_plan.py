@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gfc.examples import load_example
+from gfc.kinds import OBJECT_KINDS
 from gfc.plan import PlanError, compile_plan, load_plan, parse_plan
 from gfc.tasks import sample_task
 
@@ -419,6 +420,22 @@ def test_a_pour_asks_both_containers_upright_before_it() -> None:
     no_pour = sample_task("pour_cup", 0).plan.model_dump(by_alias=True)
     no_pour["skeleton"] = no_pour["skeleton"][:-1]
     assert not [f for f in compile_plan(no_pour).spatial if f.type == "upright"]
+
+
+def test_a_pour_keeps_the_holding_hand_out_of_the_way() -> None:
+    """The pour adds ``palm_clear`` over the mug and cup versions it reads and the action of
+    the mug's grasp (the pick by the arm that pours), with the two rims' frames."""
+    graph = compile_plan(sample_task("pour_cup", 0).plan)
+    (palm,) = [f for f in graph.spatial if f.type == "palm_clear"]
+    upright = {f.nodes[0] for f in graph.spatial if f.type == "upright"}
+    assert [graph.nodes[n].entity for n in palm.nodes] == ["mug", "cup"]
+    assert set(palm.nodes) == upright
+    (action,) = palm.actions
+    step = graph.actions[action].step
+    pick = sample_task("pour_cup", 0).plan.skeleton[step]
+    pour = sample_task("pour_cup", 0).plan.skeleton[-1]
+    assert (pick.skill, pick.object, pick.robot) == ("pick", "mug", pour.robot)
+    assert palm.params["source_frame"] == list(OBJECT_KINDS["mug"].frame("rim"))
 
 
 def test_a_pour_is_a_factor_over_its_pre_nodes_and_a_strike_stays_terminal() -> None:

@@ -52,7 +52,14 @@ from gfc.plan.schema import (
     Step,
     Yaw,
 )
-from gfc.skills.signatures import POUR_UPRIGHT_DEG, SKILLS, Role, SkillSpec, default_model_key
+from gfc.skills.signatures import (
+    POUR_PALM_TOWARDS,
+    POUR_UPRIGHT_DEG,
+    SKILLS,
+    Role,
+    SkillSpec,
+    default_model_key,
+)
 
 
 @dataclass(frozen=True)
@@ -531,6 +538,33 @@ class _Compiler:
                 continue
             params = {"weight": 1.0, "tolerance": POUR_UPRIGHT_SIN / BOUND_SIGMAS}
             self.spatial.append(SpatialFactor("upright", "implied", len(self.spatial), (node,), params))
+        self.add_palm_clear(step)
+
+    def add_palm_clear(self, step: Step) -> None:
+        """The hand holding a pour's source is not between it and the target (``palm_clear``
+        over the two containers' nodes and the source's grasp action: the hand's pose is the
+        source's node carried by the grasp). The screen refuses such a pour (docs/adr/0013): every
+        logged spill had it, and so did half of GFC's top-1 pours before this factor."""
+        source, target = step.object, step.target
+        grasp = self.grasp_action.get(step.robot)
+        if source is None or target is None or grasp is None:
+            return
+        nodes = (self.state.latest.get(source), self.state.latest.get(target))
+        kinds = [OBJECT_KINDS[self.objects[name].kind] for name in (source, target) if name in self.objects]
+        if None in nodes or len(kinds) != 2 or not all("rim" in k.frames for k in kinds):
+            return
+        params = {
+            "weight": 1.0,
+            # The screen's bound, about a degree past side-on, is BOUND_SIGMAS tolerances away.
+            "tolerance": abs(POUR_PALM_TOWARDS) / BOUND_SIGMAS,
+            "margin": 0.0,
+            "source_frame": list(kinds[0].frame("rim")),
+            "target_frame": list(kinds[1].frame("rim")),
+        }
+        factor_nodes = tuple(n for n in nodes if n is not None)
+        self.spatial.append(
+            SpatialFactor("palm_clear", "implied", len(self.spatial), factor_nodes, params, (grasp,))
+        )
 
     def add_reach(self, robot: str, node: int) -> None:
         """Every hand pose a plan samples must be within the arm's reach of its shoulder. The

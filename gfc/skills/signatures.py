@@ -37,6 +37,11 @@ KIND_DIM: dict[TokenKind, int] = {"robot": ROBOT_STATE_DIM, "object": OBJECT_STA
 POSE_ACTION = ("x", "y", "z", "r11", "r21", "r31", "r12", "r22", "r32")
 PICK_LIFT = 0.12  # m a pick lifts the grasped object straight up (part of what "pick" means)
 POUR_UPRIGHT_DEG = 15.0  # a pour starts with both containers within this of vertical
+# Cosine of the angle between the holding hand's approach (horizontal part) and the pouring
+# direction, at least: below it the palm and fingers are between source and target and the
+# contents pour onto them (ADR 0013). Just below 0 (about a degree past side-on), so that a hand
+# side-on to the pour, as in the task's reference actions, passes.
+POUR_PALM_TOWARDS = -0.02
 
 
 @dataclass(frozen=True)

@@ -87,7 +87,7 @@ def test_linear_chain_drops_only_the_spatial_factors() -> None:
     assert {f.type for f in compiled.spatial} - {f.type for f in chain.spatial} == {"inside"}
     pour = compile_plan(sample_task("pour_cup", 0).plan)
     kept = chain_only(pour).spatial
-    assert sorted({f.type for f in kept}) == ["reach", "upright"]
+    assert sorted({f.type for f in kept}) == ["palm_clear", "reach", "upright"]
     assert {f.type for f in pour.spatial} - {f.type for f in kept} == {"aligned", "near"}
 
 

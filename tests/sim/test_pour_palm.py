@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from gfc.geometry import FloatArray, pose9_to_matrix
 from gfc.kinds import object_kind
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.terminal import POUR_PALM_TOWARDS, PourAim, aim_pour, palm_clear
+from gfc.sim.skills.terminal import PourAim, aim_pour, palm_clear
+from gfc.skills.signatures import POUR_PALM_TOWARDS
 from gfc.tasks.base import frame, rot_z
 from gfc.tasks.pour_cup import CLEARANCE, LIP_SHORT, MUG_GRASP
 

@@ -29,7 +29,7 @@ from gfc.sim.skills.motions import (
 )
 from gfc.sim.world import World, bead_positions, object_matrix
 from gfc.sim.world import step as physics_step
-from gfc.skills.signatures import POUR_UPRIGHT_DEG
+from gfc.skills.signatures import POUR_PALM_TOWARDS, POUR_UPRIGHT_DEG
 
 STRIKE_XY_TOLERANCE = 0.02  # m between the striking face's centre and the nail top
 STRIKE_MAX_GAP = 0.10  # m: a swing longer than this is not a strike
@@ -41,11 +41,6 @@ POUR_MIN_CLEARANCE, POUR_MAX_CLEARANCE = 0.0, 0.06  # source bottom above the ta
 POUR_SHARE = 0.8  # fraction of the contents that must land in the target
 POUR_LIP_LOW = 0.02  # m: how low over the target's rim the lip comes while tipping
 POUR_SPEED = 0.5  # rad/s of the fastest joint: slow, so that the contents trickle out
-# Cosine of the angle between the holding hand's approach (horizontal part) and the pouring
-# direction, at least: below it the palm and fingers are between source and target and the
-# contents pour onto them (ADR 0013). Just below 0 (about a degree past side-on), so that a hand
-# side-on to the pour, as in the task's reference actions, passes.
-POUR_PALM_TOWARDS = -0.02
 
 
 @dataclass(frozen=True)

@@ -159,8 +159,8 @@ def palm_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.T
     (horizontal part) does not point against the pouring direction, the source's rim centre to
     the target's (``source_frame``, ``target_frame``). Inputs: (source node, target node, the
     source's grasp action, a pose9 in its frame). The residual is how far the approach's
-    horizontal component along the pouring direction is below ``margin`` (an approach from
-    above has none: 0). (B, 1)"""
+    horizontal component along the pouring direction is below 0 (an approach from above has
+    none: 0). (B, 1)"""
     source, target, grasp = nodes
     hand = _pose_of(source) @ pose9_to_transform(grasp[..., :9])  # (B, 4, 4)
     approach = hand[..., :2, 2]  # (B, 2): the hand's z axis, into the object
@@ -169,7 +169,7 @@ def palm_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.T
     ]  # (B, 2)
     direction = towards / towards.norm(dim=-1, keepdim=True).clamp_min(1e-6)
     along = (approach * direction).sum(dim=-1, keepdim=True)  # (B, 1)
-    return torch.relu(float(params.get("margin", 0.0)) - along)
+    return torch.relu(-along)
 
 
 def grasps_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:

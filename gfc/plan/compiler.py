@@ -549,21 +549,22 @@ class _Compiler:
         grasp = self.grasp_action.get(step.robot)
         if source is None or target is None or grasp is None:
             return
-        nodes = (self.state.latest.get(source), self.state.latest.get(target))
-        kinds = [OBJECT_KINDS[self.objects[name].kind] for name in (source, target) if name in self.objects]
-        if None in nodes or len(kinds) != 2 or not all("rim" in k.frames for k in kinds):
+        latest, objects = self.state.latest, self.objects
+        if source not in latest or target not in latest or source not in objects or target not in objects:
+            return
+        kinds = [OBJECT_KINDS[objects[name].kind] for name in (source, target)]
+        if not all("rim" in k.frames for k in kinds):
             return
         params = {
             "weight": 1.0,
             # The screen's bound, about a degree past side-on, is BOUND_SIGMAS tolerances away.
             "tolerance": abs(POUR_PALM_TOWARDS) / BOUND_SIGMAS,
-            "margin": 0.0,
             "source_frame": list(kinds[0].frame("rim")),
             "target_frame": list(kinds[1].frame("rim")),
         }
-        factor_nodes = tuple(n for n in nodes if n is not None)
+        nodes = (latest[source], latest[target])
         self.spatial.append(
-            SpatialFactor("palm_clear", "implied", len(self.spatial), factor_nodes, params, (grasp,))
+            SpatialFactor("palm_clear", "implied", len(self.spatial), nodes, params, (grasp,))
         )
 
     def add_reach(self, robot: str, node: int) -> None:

@@ -41,6 +41,10 @@ POUR_MIN_CLEARANCE, POUR_MAX_CLEARANCE = 0.0, 0.06  # source bottom above the ta
 POUR_SHARE = 0.8  # fraction of the contents that must land in the target
 POUR_LIP_LOW = 0.02  # m: how low over the target's rim the lip comes while tipping
 POUR_SPEED = 0.5  # rad/s of the fastest joint: slow, so that the contents trickle out
+# While tipping, a lip past this point (a fraction of the target's inner radius along the pouring
+# direction, negative = the near half) is drawn back to it: the contents leave the lip at ~0.5 m/s
+# and carry 3 cm on before they fall to the rim, over the far wall from a lip at the centre.
+POUR_LIP_AIM = -0.5
 
 
 @dataclass(frozen=True)
@@ -127,6 +131,7 @@ class PourAim:
     lip: FloatArray  # (3,) the source's rim point over the target, world frame
     direction: FloatArray  # (3,) horizontal unit vector from the source's rim centre to the target's
     target_rim: FloatArray  # (3,) the target's rim centre
+    target_radius: float  # m, the target's inner half-width along the pouring direction
 
 
 def aim_pour(
@@ -173,7 +178,7 @@ def aim_pour(
             FailureType.METHOD,
             f"{source_name}'s bottom is {clearance * 100:.1f} cm above {target_name}'s rim",
         )
-    return PourAim(lip, direction, target_rim)
+    return PourAim(lip, direction, target_rim, float(target.inner_half_extents[0]))
 
 
 def palm_clear(aim: PourAim, world_from_hand: FloatArray, source_name: str, target_name: str) -> None:
@@ -202,19 +207,24 @@ def tipping_poses(aim: PourAim, start: FloatArray, rim_height: float) -> list[Fl
     ``POUR_ANGLE``. Tipping swings the source's body up and away, so the lip is lowered meanwhile
     by rim_height * (1 - cos(angle)) (which keeps the lowest corner of the source at its starting
     clearance) until it is POUR_LIP_LOW above the target's rim: the contents then leave the lip
-    just above the opening instead of falling from the height of the source. The screen checks
-    that the arm can follow them."""
+    just above the opening instead of falling from the height of the source. A lip beyond
+    ``POUR_LIP_AIM`` is drawn back towards the source (away from the target) by the time the
+    source is level, so that the contents' carry lands them inside (ADR 0013, second addendum).
+    The screen checks that the arm can follow them."""
     lip = aim.lip
     axis = np.cross([0.0, 0.0, 1.0], aim.direction)
     lowest_lip = aim.target_rim[2] + POUR_LIP_LOW
+    along = float((lip - aim.target_rim)[:2] @ aim.direction[:2])
+    draw_back = min(0.0, POUR_LIP_AIM * aim.target_radius - along)
     poses = []
     for angle in np.linspace(0.0, POUR_ANGLE, 60):
         rot = _axis_angle(axis, float(angle))
         tipped = min(float(angle), math.pi / 2)
         drop = min(rim_height * (1.0 - math.cos(tipped)), max(0.0, lip[2] - lowest_lip))
+        shift = draw_back * min(1.0, float(angle) / (math.pi / 2)) * aim.direction
         pose = start.copy()
         pose[:3, :3] = rot @ start[:3, :3]
-        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip) - np.array([0.0, 0.0, drop])
+        pose[:3, 3] = lip + rot @ (start[:3, 3] - lip) - np.array([0.0, 0.0, drop]) + shift
         poses.append(pose)
     return poses
 

@@ -87,12 +87,12 @@ def replay(task: str, seed: int, actions: list[Any]) -> tuple[str, BeadTrace, li
         return aim
 
     # Patched for this replay only (restored below): the executor looks these up at call time.
+    follow = _follow(trace)
     patched = {
-        (control, "step"): _follow(trace),
-        (terminal, "physics_step"): None,
+        (control, "step"): follow,
+        (terminal, "physics_step"): follow,
         (terminal, "aim_pour"): aim_and_record,
     }
-    patched[(terminal, "physics_step")] = patched[(control, "step")]
     originals = {key: vars(key[0])[key[1]] for key in patched}
     for (module, name), replacement in patched.items():
         vars(module)[name] = replacement

@@ -84,6 +84,12 @@ def make_collision_fn(
     for c in carried:
         holders.setdefault(c.object, set()).add(c.robot)
     moving_bodies = [mirror.robots[r].body for r in robots] + [mirror.objects[o].body for o in holders]
+    # Every object on the mirror is static (massless: the mirror is never stepped), and Bullet
+    # reports no contacts between two static bodies: a carried object's penetration of another
+    # object or the table is found by a closest-points query instead (until session 20 it went
+    # unseen: a hook turned across the box rested its shaft on the box's wall, type 3).
+    static_bodies = {o.body: n for n, o in mirror.objects.items()}
+    static_bodies[mirror.table] = "table"
 
     def touching_allowed(moving: str, other: str, moving_link: int, other_link: int) -> bool:
         if (moving, other) in allowed or (other, moving) in allowed:
@@ -126,6 +132,14 @@ def make_collision_fn(
                 moving, other = name_of_body[body], name_of_body.get(other_body, "?")
                 if not touching_allowed(moving, other, link_a, link_b):
                     return Collision(moving, other)
+        for name in holders:
+            body = mirror.objects[name].body
+            for other_body, other in static_bodies.items():
+                if other_body == body or touching_allowed(name, other, -1, -1):
+                    continue
+                for point in pb.getClosestPoints(body, other_body, 0.0, physicsClientId=client):
+                    if point[8] < -PENETRATION_TOLERANCE:
+                        return Collision(name, other)
         if clearance > 0.0:
             for name in holders:
                 body = mirror.objects[name].body

@@ -115,3 +115,32 @@ def test_a_carried_object_keeps_the_clearance_asked_for() -> None:
             assert (hit.other if hit else None) == expected
             if hit:
                 assert hit.moving == "block"
+
+
+@pytest.mark.slow
+def test_a_carried_object_in_a_fixed_one_is_a_collision() -> None:
+    """Objects on the planning mirror are all static, and Bullet reports no contact between two
+    static bodies: a carried block pushed 2 cm into the rack's bar must still be a collision
+    (it was not before session 20), 1 mm in is resting contact, and an allowed pair is free."""
+    from gfc.geometry import invert
+    from gfc.sim.collision import PENETRATION_TOLERANCE, Carried
+
+    scene = SCENE.model_dump()
+    scene["objects"].append({"name": "block", "kind": "block", "pose": [0.3, 0.0, TABLE_TOP_Z, 0, 0, 0, 1]})
+    bar_top = TABLE_TOP_Z + 0.12
+    assert PENETRATION_TOLERANCE > 0.001
+    with build_world(Scene.model_validate(scene)) as world:
+        for depth, allowed, expected in (
+            (0.02, frozenset(), "rack"),
+            (0.001, frozenset(), None),
+            (0.02, frozenset({("block", "rack")}), None),
+        ):
+            world_from_block = frame([0.45, 0.35, bar_top - depth], np.eye(3))
+            world_from_ee = frame([0.45, 0.35, bar_top - depth + 0.025], DOWN)
+            q = solve_ik(world, "left", world_from_ee, np.asarray(HOME_JOINTS), np.random.default_rng(0))
+            assert q is not None
+            carried = [Carried("left", "block", invert(world_from_ee) @ world_from_block)]
+            hit = make_collision_fn(world, ["left"], carried, {"left": 0.05}, allowed)(q)
+            assert (None if hit is None else (hit.moving, hit.other)) == (
+                None if expected is None else ("block", expected)
+            ), f"{depth * 100:.1f} cm into the bar, allowed {set(allowed)}"

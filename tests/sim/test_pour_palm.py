@@ -36,6 +36,23 @@ def _meeting(side: float, mug_yaw: float) -> tuple[PourAim, FloatArray]:
     return aim, mug_at @ pose9_to_matrix(np.asarray(MUG_GRASP))
 
 
+def _mug_beside_the_cup(dz: float) -> FloatArray:
+    """The task's reference meeting (the lip over the cup), the mug ``dz`` higher."""
+    assert MUG.inner_half_extents is not None
+    offset = MUG.inner_half_extents[0] + LIP_SHORT
+    return frame(
+        CUP_AT[:3, 3] + np.array([0.0, offset, CUP.frames["rim"][2] + CLEARANCE + dz]), rot_z(math.pi)
+    )
+
+
+def test_a_pour_from_below_the_rim_is_refused() -> None:
+    """The pour's precondition: the source's bottom above the target's rim."""
+    aim_pour(MUG, _mug_beside_the_cup(0.0), CUP, CUP_AT, "mug", "cup")
+    with pytest.raises(SkillFailure, match="above cup's rim") as refused:
+        aim_pour(MUG, _mug_beside_the_cup(-0.10), CUP, CUP_AT, "mug", "cup")
+    assert refused.value.failure_type is FailureType.METHOD
+
+
 def test_the_reference_meeting_holds_the_mug_side_on() -> None:
     aim, hand = _meeting(math.pi / 2, math.pi)  # the task's reference: hand approach +x, pour -y
     assert np.allclose(aim.direction, [0.0, -1.0, 0.0], atol=1e-9)

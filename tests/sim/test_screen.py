@@ -112,13 +112,15 @@ def test_a_pour_the_arm_cannot_follow_fails_at_the_pour(monkeypatch: pytest.Monk
     assert "cannot tip mug over cup" in verdict.reason
 
 
-def test_a_pour_from_below_the_rim_fails_at_the_pour() -> None:
-    """Both moves reachable, but the mug ends 10 cm lower than the reference puts it: the pour's
-    own precondition (the source's bottom above the target's rim) rejects it."""
+def test_a_mug_lowered_into_the_cup_fails_at_the_meeting() -> None:
+    """Both moves reachable, but the mug ends 10 cm lower than the reference puts it: inside the
+    cup the other hand holds. Two carried objects are both static on the planning mirror, where
+    Bullet reports no contact between them; until session 20 only the pour's own precondition
+    (the source's bottom above the target's rim, tests/sim/test_pour_palm.py) caught this."""
     verdict = _screen_shifted("pour_cup", _step_of("pour_cup", "move", "mug"), 2, -0.10)
     assert not verdict.feasible
-    assert verdict.step == _step_of("pour_cup", "pour")
-    assert "above cup's rim" in verdict.reason
+    assert verdict.step == _step_of("pour_cup", "move", "mug")
+    assert "mug with cup" in verdict.reason
 
 
 def test_a_grasp_beside_the_object_fails_because_the_fingers_would_miss() -> None:
@@ -238,3 +240,39 @@ def test_a_grasp_whose_hand_meets_a_fixture_fails_at_the_grasp() -> None:
     assert not verdict.feasible
     assert verdict.step == 0
     assert "collides (right with rack) for the grasp of obstacle_0" in verdict.reason
+
+
+# GFC's top-1 plan for Hook Reach T2, seed 6 (log docs/bench/trials/single_arm_s19.jsonl): the
+# pull turns the hook 49 degrees off the approach line, across the box, and the simulator
+# reported type 3 ("the hook did not move the block (0.0 cm)"): the hook's shaft came down on
+# the box's wall and the hand stopped 7 cm above the working height.
+_HOOK_ACROSS_THE_BOX = [
+    [-0.013221, -0.045925, 0.022993, 0.994567, -0.104065, 0.002496, -0.104067, -0.99457, 0.000635],
+    [0.064538, -0.021694, 0.112369, -0.851055],
+    [0.048104, -0.031301, 0.122996, -0.007877, -0.999969, -0.000197, 0.999969, -0.007877, -4e-06],
+    [-0.003621, 0.002554, 0.033389, -0.170297, -0.985393, -0.000195, -0.985364, 0.170293, -0.007655],
+    [0.017673, 0.001334, 0.015104, -0.991066, 0.133375, -0.000402, -0.133375, -0.991066, -0.000328],
+]
+
+
+def test_a_pull_whose_hook_comes_down_on_the_box_fails_at_the_pull() -> None:
+    """The held hook against a fixed object: every object on the planning mirror is static, and
+    Bullet reports no contact between two static bodies, so until session 20 the screen passed
+    this pull; the held tool is now checked against objects by closest points."""
+    instance = sample_task("hook_reach_t2", 6)
+    with Screen(instance.plan, 6) as screen:
+        verdict = screen.check([np.asarray(a) for a in _HOOK_ACROSS_THE_BOX])
+        assert screen.check(_reference("hook_reach_t2", 6)).feasible
+    assert not verdict.feasible
+    assert verdict.step == _step_of("hook_reach_t2", "pull")
+    assert "(hook with box) for the working height" in verdict.reason
+
+
+@pytest.mark.slow
+def test_the_pull_the_screen_rejects_does_not_move_the_block_in_the_simulator() -> None:
+    """The same plan executed: the pull fails, type 3, as logged."""
+    instance = sample_task("hook_reach_t2", 6)
+    outcome = execute_plan(instance.plan, [np.asarray(a) for a in _HOOK_ACROSS_THE_BOX], seed=6)
+    pull = outcome.steps[_step_of("hook_reach_t2", "pull")]
+    assert not pull.success
+    assert "did not move the block" in pull.reason

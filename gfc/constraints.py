@@ -188,7 +188,9 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     (slid along the stroke by r less the gap the hook closes first); how far the target's centre
     is outside the hook's face (``lateral``, the y span that catches it); and how far the tool
     would come down closer to the target than ``clearance`` (0: inside it); with
-    ``max_length``, a fifth: how far the stroke is longer than that (B, 5)."""
+    ``max_length``, a fifth: how far the stroke is longer than that (B, 5). With ``shaft_edge``
+    (a pull), the face's lower end rises to where the target's near side clears the shaft;
+    ``margin_gain`` scales the face and clearance residuals."""
     before, after, action = nodes
     pose = _pose_of(before)  # (B, 4, 4)
     centre = pose[..., :2, 3]  # (B, 2)
@@ -209,9 +211,17 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     direction = sign * torch.stack([torch.cos(tool_yaw), torch.sin(tool_yaw)], dim=-1)  # (B, 2)
     slid = centre + travel.unsqueeze(-1) * direction
     low, high = params["lateral"]
+    if params.get("shaft_edge") is not None:
+        # A pull: the block's near side must clear the shaft's edge, or the lowered shaft lands
+        # on it (the screen's "the shaft would land on the target").
+        half_y = ex * torch.sin(turn).abs() + ey * torch.cos(turn).abs()
+        low = torch.clamp(float(params["shaft_edge"]) + half_y, min=low)
     outside = torch.relu(low - across) + torch.relu(across - high)
     short = torch.relu(float(params.get("clearance", 0.0)) - gap)
-    out = [after[..., :2] - slid, outside.unsqueeze(-1), short.unsqueeze(-1)]
+    # The hook's margins are hard edges (the screen refuses a stroke past them): their residuals
+    # count ``margin_gain`` times the sliding error's.
+    gain = float(params.get("margin_gain", 1.0))
+    out = [after[..., :2] - slid, gain * outside.unsqueeze(-1), gain * short.unsqueeze(-1)]
     if params.get("max_length") is not None:
         out.append(torch.relu(r - float(params["max_length"])).unsqueeze(-1))
     return torch.cat(out, dim=-1)

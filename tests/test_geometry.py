@@ -337,3 +337,32 @@ def test_palm_clear_turns_with_the_scene(scene_yaw: float, pitch: float) -> None
     turned = constraints.palm_clear([_node(0, 0, 0, scene_yaw), _node(0.2 * c, 0.2 * s, 0), grasp], RIMS)
     assert float(turned) == pytest.approx(float(still), abs=1e-9)
     assert float(still) == pytest.approx(max(0.0, -math.sin(pitch)), abs=1e-9)
+
+
+def test_stroke_margins_weigh_by_their_gain_and_a_pull_clears_the_shaft() -> None:
+    """A pull of a 4 cm block straight towards the base (at the origin): the hook's bar (1 cm
+    half-width) touches the block's far side (gap 0) and the block's centre is 6 cm across the
+    face. With a 1 cm clearance wanted, the short residual is the gain times 1 cm; with the
+    shaft's edge at 5 cm, the block's near side (2 cm from its centre) needs 7 cm across, so it is
+    1 cm outside the face, again times the gain. Sliding is unweighted."""
+    block, after = _node(0.5, 0.0, 0.02), _node(0.4, 0.0, 0.02)
+    action = torch.tensor([[0.03, 0.04, 0.1, 0.0]], dtype=torch.float64)  # x, y, r, theta
+    params = {
+        "sign": -1.0,
+        "base": [0.0, 0.0, 0.0],
+        "tip": [0.0, 0.1, 0.0],
+        "bar_half_x": 0.01,
+        "half_extents": [0.02, 0.02, 0.02],
+        "lateral": [0.0, 0.2],
+        "clearance": 0.01,
+    }
+    plain = constraints.stroke([block, after, action], params).numpy()[0]
+    np.testing.assert_allclose(plain, [0.0, 0.0, 0.0, 0.01], atol=1e-9)
+    weighed = constraints.stroke([block, after, action], {**params, "margin_gain": 4.0, "shaft_edge": 0.05})
+    np.testing.assert_allclose(weighed.numpy()[0], [0.0, 0.0, 0.04, 0.04], atol=1e-9)
+    # A 6 x 4 cm block turned a quarter: its near side is 3 cm from its centre, 2 cm outside.
+    turned = _node(0.5, 0.0, 0.02, math.pi / 2)
+    wide = constraints.stroke(
+        [turned, after, action], {**params, "half_extents": [0.03, 0.02, 0.02], "shaft_edge": 0.05}
+    )
+    assert float(wide[0, 2]) == pytest.approx(0.02, abs=1e-9)

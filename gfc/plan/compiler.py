@@ -20,6 +20,7 @@ from pydantic import ValidationError
 from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_quat
 from gfc.kinds import (
     HOME_EE_POSE_IN_BASE,
+    HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
     MAX_STROKE,
     OBJECT_KINDS,
@@ -134,6 +135,7 @@ PLACED_CLEARANCE = 0.009  # m
 RELEASED_CLEAR_TOLERANCE = 0.005  # m
 RELEASED_CLEARANCE = 0.006  # m
 STROKE_TOLERANCE = 0.01  # m: a stroked block ends within millimetres of the contact model
+STROKE_MARGIN_GAIN = 4.0  # how much more the hook's margins (face, clearance) weigh than sliding
 # m: a placed object that a stroke then moves rests where the place action put it. Tighter than
 # the kinematic link's 2 cm settling slack: with 2 cm the block's node still sat 3-11 cm from
 # the release in Rearrangement Push T2 (seed 0, 32 candidates), with 5 mm 1-3 cm.
@@ -605,7 +607,14 @@ class _Compiler:
             "max_length": MAX_STROKE,
             # A centimetre inside the face's ends: a block caught by its edge slips off.
             "lateral": [low + STROKE_TOLERANCE, high - STROKE_TOLERANCE],
+            # At the tolerance alone the composed samples sat on the margins: 126 of 192 GFC
+            # candidates of Hook Reach T3 (seeds 0-5) came down on the block, and 1 passed the
+            # screen (session 20, /tmp probe; docs/adr/0009 addendum).
+            "margin_gain": STROKE_MARGIN_GAIN,
         }
+        if sign < 0:
+            # Half a tolerance clear of the shaft's edge: samples settle on a margin's edge.
+            params["shaft_edge"] = HOOK_SHAFT_Y[1] + STROKE_TOLERANCE / 2
         nodes = (before[target], after[target])
         self.spatial.append(SpatialFactor("stroke", "implied", len(self.spatial), nodes, params, (action,)))
         self.add_rest_link(before[target])

@@ -188,9 +188,11 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     (slid along the stroke by r less the gap the hook closes first); how far the target's centre
     is outside the hook's face (``lateral``, the y span that catches it); and how far the tool
     would come down closer to the target than ``clearance`` (0: inside it); with
-    ``max_length``, a fifth: how far the stroke is longer than that (B, 5). With ``shaft_edge``
-    (a pull), the face's lower end rises to where the target's near side clears the shaft;
-    ``margin_gain`` scales the face and clearance residuals."""
+    ``max_length``, a fifth: how far the stroke is longer than that (B, 5); with ``max_turn``
+    (rad), one more: how far the target's face is turned from the tool's beyond that, times the
+    target's half side. With ``shaft_edge`` (a pull), the face's lower end rises to where the
+    target's near side clears the shaft; ``margin_gain`` scales the face, clearance and turn
+    residuals."""
     before, after, action = nodes
     pose = _pose_of(before)  # (B, 4, 4)
     centre = pose[..., :2, 3]  # (B, 2)
@@ -224,6 +226,12 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     out = [after[..., :2] - slid, gain * outside.unsqueeze(-1), gain * short.unsqueeze(-1)]
     if params.get("max_length") is not None:
         out.append(torch.relu(r - float(params["max_length"])).unsqueeze(-1))
+    if params.get("max_turn") is not None:
+        # A block met askew (its yaw from the tool's, a quarter turn being the same box) slips
+        # on its corner: the excess angle, as the arc the block's half side sweeps, a margin.
+        folded = torch.atan2(torch.sin(4.0 * turn), torch.cos(4.0 * turn)) / 4.0
+        excess = torch.relu(folded.abs() - float(params["max_turn"])) * ex
+        out.append(gain * excess.unsqueeze(-1))
     return torch.cat(out, dim=-1)
 
 

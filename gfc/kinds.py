@@ -8,6 +8,7 @@ Named frames (``hammer.head``) are poses in the object frame, ``[x, y, z, qx, qy
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from gfc.geometry import POSE9_DIM
@@ -47,6 +48,14 @@ STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # a stroke's travel along the tool's
 # edge and the pull slid over it (Hook Reach T1 seed 4, session 13).
 STROKE_CLEARANCE = 0.01
 MAX_STROKE = 0.3  # m: the longest push or pull the executor makes
+# rad: how far a stroked block's face may be turned from the hook's face (folded to within 45
+# degrees). The face turns a block it meets askew until they lie flat (the block's yaw ended at
+# the tool's, within a degree or two, in the replayed pulls of Hook Reach T2 turned up to 30
+# degrees); met more askew the hook catches a corner: of GFC's 100 top-1 plans of Hook Reach T2
+# at commit a0e6f98, 9 of the 14 pulls turned more than 35 degrees failed (the block moved 0-4
+# cm of a planned 11-16, or ended out of reach), 1 of the 8 turned 30-35 did (session 22,
+# scripts/replay_top1.py --strokes/--screen; docs/adr/0009 addendum).
+MAX_STROKE_TURN = math.radians(35.0)
 
 
 def hook_face_span(sign: float) -> tuple[float, float]:

@@ -366,3 +366,30 @@ def test_stroke_margins_weigh_by_their_gain_and_a_pull_clears_the_shaft() -> Non
         [turned, after, action], {**params, "half_extents": [0.03, 0.02, 0.02], "shaft_edge": 0.05}
     )
     assert float(wide[0, 2]) == pytest.approx(0.02, abs=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("block_yaw_deg", "excess_deg"),
+    [(0.0, 0.0), (20.0, 0.0), (-30.0, 0.0), (40.0, 10.0), (-42.0, 12.0), (80.0, 0.0), (130.0, 10.0)],
+)
+def test_a_stroke_meeting_its_block_askew_pays_the_excess_turn(
+    block_yaw_deg: float, excess_deg: float
+) -> None:
+    """The tool points along the base-to-block line (theta 0, the block on the x axis), so the
+    block's face is turned from the hook's by its yaw, a quarter turn being the same box: past
+    30 degrees the excess (rad) times the block's 2 cm half side, times the margin gain."""
+    block = _node(0.5, 0.0, 0.02, math.radians(block_yaw_deg))
+    action = torch.tensor([[0.03, 0.04, 0.1, 0.0]], dtype=torch.float64)
+    params = {
+        "sign": -1.0,
+        "base": [0.0, 0.0, 0.0],
+        "tip": [0.0, 0.1, 0.0],
+        "bar_half_x": 0.01,
+        "half_extents": [0.02, 0.02, 0.02],
+        "lateral": [0.0, 0.2],
+        "margin_gain": 4.0,
+        "max_turn": math.radians(30.0),
+    }
+    out = constraints.stroke([block, block, action], params)
+    assert out.shape == (1, 5)
+    assert float(out[0, 4]) == pytest.approx(4.0 * math.radians(excess_deg) * 0.02, abs=1e-9)

@@ -23,6 +23,7 @@ from gfc.kinds import (
     HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
     MAX_STROKE,
+    MAX_STROKE_TURN,
     OBJECT_KINDS,
     OBJECT_STATE_DIM,
     PANDA_REACH,
@@ -135,6 +136,7 @@ PLACED_CLEARANCE = 0.009  # m
 RELEASED_CLEAR_TOLERANCE = 0.005  # m
 RELEASED_CLEARANCE = 0.006  # m
 STROKE_TOLERANCE = 0.01  # m: a stroked block ends within millimetres of the contact model
+STROKE_TURN_MARGIN = math.radians(5.0)  # inside the screen's MAX_STROKE_TURN, for the factor
 STROKE_MARGIN_GAIN = 4.0  # how much more the hook's margins (face, clearance) weigh than sliding
 # m: a placed object that a stroke then moves rests where the place action put it. Tighter than
 # the kinematic link's 2 cm settling slack: with 2 cm the block's node still sat 3-11 cm from
@@ -611,6 +613,9 @@ class _Compiler:
             # candidates of Hook Reach T3 (seeds 0-5) came down on the block, and 1 passed the
             # screen (session 20, /tmp probe; docs/adr/0009 addendum).
             "margin_gain": STROKE_MARGIN_GAIN,
+            # Met more askew the hook catches the block's corner (gfc.kinds.MAX_STROKE_TURN); a
+            # few degrees inside it, as the face's span is a tolerance inside its ends.
+            "max_turn": MAX_STROKE_TURN - STROKE_TURN_MARGIN,
         }
         if sign < 0:
             # Half a tolerance clear of the shaft's edge: samples settle on a margin's edge.

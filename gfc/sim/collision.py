@@ -53,6 +53,30 @@ class Collision:
 CollisionFn = Callable[[FloatArray], Collision | None]
 
 
+def _self_contact(client: int, body: int, robot: str) -> Collision | None:
+    """The first pair of one arm's links that interpenetrate where its joints are now."""
+    for i, j in SELF_PAIRS:
+        for contact in pb.getClosestPoints(
+            body, body, 0.0, linkIndexA=i, linkIndexB=j, physicsClientId=client
+        ):
+            if contact[8] < -PENETRATION_TOLERANCE:
+                return Collision(robot, f"itself (links {i} and {j})")
+    return None
+
+
+def self_collision_fn(world: World, robot: str) -> CollisionFn:
+    """A test of ``robot``'s joints (7) against the arm itself only, on the mirror: for the
+    straight lines that may touch the scene but must not fold the arm into itself."""
+    mirror = world.mirror
+    panda = mirror.robots[robot]
+
+    def check(q: FloatArray) -> Collision | None:
+        set_joints(mirror.client, panda, q, 0.04)
+        return _self_contact(mirror.client, panda.body, robot)
+
+    return check
+
+
 def make_collision_fn(
     world: World,
     robots: Sequence[str],
@@ -111,13 +135,9 @@ def make_collision_fn(
         if tilted is not None:
             return Collision(tilted, "tilt")
         for r in robots:
-            body = mirror.robots[r].body
-            for i, j in SELF_PAIRS:
-                for contact in pb.getClosestPoints(
-                    body, body, 0.0, linkIndexA=i, linkIndexB=j, physicsClientId=client
-                ):
-                    if contact[8] < -PENETRATION_TOLERANCE:
-                        return Collision(r, f"itself (links {i} and {j})")
+            hit = _self_contact(client, mirror.robots[r].body, r)
+            if hit is not None:
+                return hit
         pb.performCollisionDetection(physicsClientId=client)
         for body in moving_bodies:
             for contact in pb.getContactPoints(bodyA=body, physicsClientId=client):

@@ -14,6 +14,7 @@ import numpy as np
 import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, matrix_to_quat, pose7_to_matrix
+from gfc.sim.collision import CollisionFn
 from gfc.sim.ik import solve_ik
 from gfc.sim.panda import (
     EE_LINK,
@@ -122,16 +123,22 @@ def cartesian_joint_path(
 
 
 def tracks_lines(
-    world: World, robot: str, q: FloatArray, poses: Sequence[FloatArray], rng: np.random.Generator
+    world: World,
+    robot: str,
+    q: FloatArray,
+    poses: Sequence[FloatArray],
+    rng: np.random.Generator,
+    guard: CollisionFn | None = None,
 ) -> bool:
     """Whether straight end-effector lines through ``poses`` (the first is where ``q`` puts the
-    hand) can be tracked from joint configuration ``q`` on one IK branch."""
+    hand) can be tracked from joint configuration ``q`` on one IK branch; with ``guard``, every
+    joint waypoint on the way must pass it too."""
     joints_now = q
     for a, b in itertools.pairwise(poses):
         path = cartesian_joint_path(
             world, robot, joints_now, interpolate_poses(a, b, waypoint_count(a, b)), rng
         )
-        if path is None:
+        if path is None or (guard is not None and any(guard(p) is not None for p in path[1:])):
             return False
         joints_now = path[-1]
     return True

@@ -44,6 +44,7 @@ from gfc.sim.collision import (
     CollisionFn,
     finger_depth,
     make_collision_fn,
+    self_collision_fn,
 )
 from gfc.sim.control import cartesian_joint_path, tracks_lines
 from gfc.sim.execute import stages
@@ -489,7 +490,14 @@ class Screen:
             if (
                 hit is None
                 and follow
-                and not tracks_lines(self.world, robot, solution, [world_from_ee, *follow], self.rng)
+                and not tracks_lines(
+                    self.world,
+                    robot,
+                    solution,
+                    [world_from_ee, *follow],
+                    self.rng,
+                    self_collision_fn(self.world, robot),
+                )
             ):
                 dead_ends += 1
                 continue

@@ -3,6 +3,8 @@ terminal step whose precondition fails, does not; the ranking puts passing candi
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,7 @@ from gfc.kinds import PANDA_REACH, PANDA_SHOULDER_Z
 from gfc.sim import screen as screen_module
 from gfc.sim.execute import execute_plan
 from gfc.sim.screen import Screen, Verdict, screen_order
+from gfc.sim.skills import tools
 from gfc.sim.skills.motions import translated
 from gfc.tasks import SINGLE_ARM, TASKS, sample_task
 
@@ -255,10 +258,13 @@ _HOOK_ACROSS_THE_BOX = [
 ]
 
 
-def test_a_pull_whose_hook_comes_down_on_the_box_fails_at_the_pull() -> None:
+def test_a_pull_whose_hook_comes_down_on_the_box_fails_at_the_pull(monkeypatch: pytest.MonkeyPatch) -> None:
     """The held hook against a fixed object: every object on the planning mirror is static, and
     Bullet reports no contact between two static bodies, so until session 20 the screen passed
-    this pull; the held tool is now checked against objects by closest points."""
+    this pull; the held tool is now checked against objects by closest points. (This pull also
+    meets the block 43 degrees askew, which the contact model now refuses first: that bound is
+    lifted here to reach the collision check.)"""
+    monkeypatch.setattr(tools, "MAX_STROKE_TURN", math.pi / 4)
     instance = sample_task("hook_reach_t2", 6)
     with Screen(instance.plan, 6) as screen:
         verdict = screen.check([np.asarray(a) for a in _HOOK_ACROSS_THE_BOX])

@@ -59,10 +59,26 @@ def test_a_push_meets_the_block_with_the_hooks_far_end() -> None:
 
 
 def test_a_turned_block_reaches_further_along_the_stroke() -> None:
-    """At 45 degrees a 5 cm block reaches 2.5 * sqrt(2) cm from its centre: the gap shrinks."""
-    block = _pose(TIP_X - 0.06, 0.02, math.pi / 4)
+    """At 30 degrees a 5 cm block reaches 2.5 (cos 30 + sin 30) cm from its centre: the gap
+    shrinks."""
+    turn = math.radians(30.0)
+    block = _pose(TIP_X - 0.06, 0.02, turn)
     contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.2, sign=-1.0)
-    assert contact.gap == pytest.approx(0.06 - HOOK_TIP_BAR_HALF_X - 0.025 * math.sqrt(2))
+    assert contact.gap == pytest.approx(
+        0.06 - HOOK_TIP_BAR_HALF_X - 0.025 * (math.cos(turn) + math.sin(turn))
+    )
+
+
+@pytest.mark.parametrize("yaw_deg", [-25.0, 10.0, 70.0, 110.0])
+def test_a_block_met_askew_ends_flat_against_the_hooks_face(yaw_deg: float) -> None:
+    """The face turns the block until they lie flat: its yaw ends at the tool's (0 here), a
+    quarter turn being the same box, and its centre where the stroke carries it."""
+    block = _pose(TIP_X - 0.07, 0.02, math.radians(yaw_deg))
+    contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.2, sign=-1.0)
+    moved = contact.moved(block, np.array([-1.0, 0.0, 0.0]))
+    yaw = math.degrees(math.atan2(moved[1, 0], moved[0, 0]))
+    assert yaw % 90.0 == pytest.approx(0.0, abs=1e-6) or yaw % 90.0 == pytest.approx(90.0, abs=1e-6)
+    np.testing.assert_allclose(moved[:3, 3], block[:3, 3] + [-contact.travel, 0.0, 0.0], atol=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -72,6 +88,8 @@ def test_a_turned_block_reaches_further_along_the_stroke() -> None:
         (_pose(TIP_X - 0.05, -0.01), 0.2, -1.0, FailureType.PATH, "shaft would land on the target"),
         (_pose(TIP_X - 0.02, 0.02), 0.2, -1.0, FailureType.PATH, "lowered tool would land"),
         (_pose(TIP_X - 0.05, 0.02), 0.015, -1.0, FailureType.PHYSICS, "the stroke ends"),
+        (_pose(TIP_X - 0.07, 0.02, math.radians(40.0)), 0.2, -1.0, FailureType.PHYSICS, "40 deg askew"),
+        (_pose(TIP_X + 0.08, 0.0, math.radians(-50.0)), 0.2, 1.0, FailureType.PHYSICS, "40 deg askew"),
         (_pose(TIP_X + 0.15, 0.02), 0.1, 1.0, FailureType.PHYSICS, "the stroke ends"),
         # the bar's inner face 2 mm from the block: it would come down on the block's edge
         (
@@ -82,7 +100,16 @@ def test_a_turned_block_reaches_further_along_the_stroke() -> None:
             "come down 0.2 cm",
         ),
     ],
-    ids=["off-the-face", "on-the-shaft", "under-the-tip", "too-short", "push-too-far", "too-close"],
+    ids=[
+        "off-the-face",
+        "on-the-shaft",
+        "under-the-tip",
+        "too-short",
+        "pull-askew",
+        "push-askew",
+        "push-too-far",
+        "too-close",
+    ],
 )
 def test_strokes_that_would_not_move_the_block_fail_with_their_reason(
     block: FloatArray, r: float, sign: float, failure: FailureType, words: str

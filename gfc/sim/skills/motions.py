@@ -20,6 +20,7 @@ from gfc.sim.collision import (
     CollisionFn,
     finger_depth,
     make_collision_fn,
+    self_collision_fn,
 )
 from gfc.sim.control import (
     cartesian_joint_path,
@@ -155,6 +156,9 @@ def free_ik_solutions(
     found: list[FloatArray] = []
     collisions: list[str] = []
     dead_ends = 0
+    # The straight lines that follow may touch the scene, never fold the arm into itself (a
+    # long pull's end did, links 0 and 4, on a branch another start tracks cleanly).
+    self_check = self_collision_fn(ctx.world, robot)
 
     def consider(q: FloatArray | None) -> None:
         nonlocal dead_ends
@@ -164,7 +168,7 @@ def free_ik_solutions(
         if (
             hit is None
             and follow
-            and not tracks_lines(ctx.world, robot, q, [world_from_ee, *follow], ctx.rng)
+            and not tracks_lines(ctx.world, robot, q, [world_from_ee, *follow], ctx.rng, self_check)
         ):
             dead_ends += 1
         elif hit is None:
@@ -258,14 +262,23 @@ def straight(
     what: str,
     speed: float = 0.5,
     finger: float | None = None,
+    guard: CollisionFn | None = None,
 ) -> None:
     """Move the end effector in a straight line (approach, retreat, lift); contact is allowed.
-    ``finger``: the finger command on the way (default: keep the grip, or open)."""
+    ``finger``: the finger command on the way (default: keep the grip, or open); ``guard``: a
+    collision test every joint waypoint must pass (type 2 otherwise, nothing moved)."""
     start = ee(ctx, robot)
     poses = interpolate_poses(start, world_from_ee, waypoint_count(start, world_from_ee))
     path = cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng)
     if path is None:
         raise SkillFailure(FailureType.METHOD, f"{robot}: cannot move in a straight line to {what}")
+    if guard is not None:
+        hit = next((h for h in map(guard, path) if h is not None), None)
+        if hit is not None:
+            raise SkillFailure(
+                FailureType.PATH,
+                f"{robot}: the straight line to {what} collides ({hit.moving} with {hit.other})",
+            )
     fingers = gripper_target(ctx.world, robot) if finger is None else finger
     execute_paths(ctx.world, {robot: path}, {robot: fingers}, speed=speed)
 

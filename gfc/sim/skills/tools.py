@@ -29,6 +29,7 @@ from gfc.kinds import (
     HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
     MAX_STROKE,
+    MAX_STROKE_TURN,
     STROKE_CLEARANCE,
     STROKE_SIGNS,
     ObjectKind,
@@ -36,8 +37,16 @@ from gfc.kinds import (
     object_kind,
 )
 from gfc.plan.schema import Step
+from gfc.sim.collision import self_collision_fn
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.motions import SkillContext, ee, reach, require_holding, straight, translated
+from gfc.sim.skills.motions import (
+    SkillContext,
+    ee,
+    reach,
+    require_holding,
+    straight,
+    translated,
+)
 from gfc.sim.world import object_matrix
 
 HOVER = 0.08  # m above the working height where the tool is lowered from
@@ -100,10 +109,22 @@ class StrokeContact:
 
     gap: float  # m the hand travels before the tool touches the target
     travel: float  # m the target is carried (the stroke's r less the gap)
+    turn: float = 0.0  # rad the target's face is turned from the tool's (folded to +-45 deg)
 
     def moved(self, world_from_target: FloatArray, direction: FloatArray) -> FloatArray:
-        """The target's pose after the stroke: carried ``travel`` along ``direction``."""
-        return translated(world_from_target, self.travel * direction)
+        """The target's pose after the stroke: carried ``travel`` along ``direction`` and turned
+        by ``-turn`` about its centre, its face flat against the tool's."""
+        out = translated(world_from_target, self.travel * direction)
+        c, s = math.cos(-self.turn), math.sin(-self.turn)
+        out[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ out[:3, :3]
+        return out
+
+
+def folded_turn(yaw: float) -> float:
+    """A box's yaw relative to a face, folded to [-45, 45) degrees (a box is the same every
+    quarter turn)."""
+    quarter = math.pi / 2
+    return (yaw + quarter / 2) % quarter - quarter / 2
 
 
 def stroke_contact(
@@ -116,10 +137,11 @@ def stroke_contact(
 ) -> StrokeContact:
     """Where the hook meets a box-shaped target on a stroke (``sign`` +1 push, -1 pull) of
     length ``r`` from the tool pose ``world_from_tool``; raises type 3 when it would not move
-    it (outside the hook's face, or farther than r) or type 2 when the lowered tool would land
-    on it. Used by the kinematic screen to follow a stroke without physics: the target slides
-    along the stroke by what is left of r once the gap is closed, keeping its yaw (a few mm and
-    degrees off what the simulator does for the tasks' strokes)."""
+    it (outside the hook's face, met more than ``MAX_STROKE_TURN`` askew, or farther than r) or
+    type 2 when the lowered tool would land on it. Used by the kinematic screen to follow a
+    stroke without physics: the target slides along the stroke by what is left of r once the gap
+    is closed, its face turned flat against the tool's (a few mm and degrees off what the
+    simulator does for the tasks' strokes)."""
     tool_from_target = invert(world_from_tool) @ world_from_target
     bx, by = tool_from_target[0, 3], tool_from_target[1, 3]
     c, s = abs(tool_from_target[0, 0]), abs(tool_from_target[1, 0])
@@ -139,6 +161,13 @@ def stroke_contact(
         raise SkillFailure(
             FailureType.PHYSICS, f"the target's centre is {by * 100:.1f} cm to the side: off the hook's face"
         )
+    turn = folded_turn(math.atan2(tool_from_target[1, 0], tool_from_target[0, 0]))
+    if abs(turn) > MAX_STROKE_TURN:
+        raise SkillFailure(
+            FailureType.PHYSICS,
+            f"the target meets the hook's face {math.degrees(abs(turn)):.0f} deg askew (at most "
+            f"{math.degrees(MAX_STROKE_TURN):.0f}): the hook would catch its corner",
+        )
     if gap < -CONTACT_SLACK:
         raise SkillFailure(
             FailureType.PATH, f"the lowered tool would land on the target ({-gap * 100:.1f} cm)"
@@ -156,7 +185,7 @@ def stroke_contact(
             FailureType.PHYSICS,
             f"the stroke ends {gap * 100:.1f} cm away, {travel * 100:.1f} cm into the target",
         )
-    return StrokeContact(gap, travel)
+    return StrokeContact(gap, travel, turn)
 
 
 def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> str:
@@ -175,7 +204,9 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
     reach(ctx, robot, poses.above, f"above the {target}", [poses.start, poses.end])
     straight(ctx, robot, poses.start, "the working height")
     before = object_matrix(world.physics, target)[:3, 3]
-    straight(ctx, robot, poses.end, "the end of the stroke", speed=0.4)
+    straight(
+        ctx, robot, poses.end, "the end of the stroke", speed=0.4, guard=self_collision_fn(ctx.world, robot)
+    )
     _retreat(ctx, robot)
     moved = float(np.linalg.norm(object_matrix(world.physics, target)[:2, 3] - before[:2]))
     if moved < MIN_TARGET_MOTION:
@@ -187,11 +218,14 @@ def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> s
 
 def _retreat(ctx: SkillContext, robot: str) -> None:
     """Lift the tool off the table, straight up; a pull can end with the hand close to the base,
-    where a full lift cannot always be tracked: then a shorter one, and else the arm stays (the
+    where a full lift cannot always be tracked, or is tracked only by folding the elbow into the
+    arm's base (the next step's motion then starts in collision: 3 of GFC's first 7 top-1
+    failures of Hook Reach T1, session 22): then a shorter one, and else the arm stays (the
     stroke itself is done; the next step starts from here)."""
+    guard = self_collision_fn(ctx.world, robot)
     for height in (HOVER, RETREAT_FALLBACK):
         try:
-            straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, height]), "the retreat")
+            straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, height]), "the retreat", guard=guard)
             return
         except SkillFailure:
             continue

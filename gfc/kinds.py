@@ -49,12 +49,11 @@ STROKE_SIGNS = {"push": 1.0, "pull": -1.0}  # a stroke's travel along the tool's
 STROKE_CLEARANCE = 0.01
 MAX_STROKE = 0.3  # m: the longest push or pull the executor makes
 # rad: how far a stroked block's face may be turned from the hook's face (folded to within 45
-# degrees). The face turns a block it meets askew until they lie flat (the block's yaw ended at
-# the tool's, within a degree or two, in the replayed pulls of Hook Reach T2 turned up to 30
-# degrees); met more askew the hook catches a corner: of GFC's 100 top-1 plans of Hook Reach T2
-# at commit a0e6f98, 9 of the 14 pulls turned more than 35 degrees failed (the block moved 0-4
-# cm of a planned 11-16, or ended out of reach), 1 of the 8 turned 30-35 did (session 22,
-# scripts/replay_top1.py --strokes/--screen; docs/adr/0009 addendum).
+# degrees). The face turns a block it meets askew until they lie flat (in replayed pulls of Hook
+# Reach T2 the block's yaw ended at the tool's, most within two degrees); met more askew the hook
+# catches a corner: of GFC's 100 top-1 plans of Hook Reach T2 at commit a0e6f98, 9 of the 15
+# pulls met more than 35 degrees askew failed (the block moved 0-4 cm of a planned 11-16, or
+# ended out of reach), against 23 failures in all (session 22, scripts/replay_top1.py; ADR 0009).
 MAX_STROKE_TURN = math.radians(35.0)
 
 

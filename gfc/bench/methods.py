@@ -76,6 +76,10 @@ class MethodPlan:
 
     candidates: list[Actions]
     seconds: float
+    # Candidates that passed the kinematic screen (screening stops at SCREEN_KEEP passes), or
+    # None when they were not screened. 0: every candidate was refused, and the ones executed
+    # are the method's own best, unscreened (a fallback).
+    passed_screen: int | None = None
 
 
 @dataclass(frozen=True)
@@ -211,9 +215,10 @@ def screened(method: Method) -> Method:
         if not settings.screen:
             return result
         t0 = time.process_time()
-        order, _ = screen_order(instance.plan, result.candidates, keep=SCREEN_KEEP, seed=instance.seed)
+        order, verdicts = screen_order(instance.plan, result.candidates, keep=SCREEN_KEEP, seed=instance.seed)
         candidates = [result.candidates[k] for k in order]
-        return MethodPlan(candidates, result.seconds + time.process_time() - t0)
+        passed = sum(v is not None and v.feasible for v in verdicts)
+        return MethodPlan(candidates, result.seconds + time.process_time() - t0, passed)
 
     return plan
 

@@ -89,6 +89,7 @@ class Trial:
     plan_seconds: float
     result: ExecutionResult
     top1_actions: tuple[tuple[float, ...] | None, ...]  # kept to re-run it for key frames
+    passed_screen: int | None = None  # MethodPlan.passed_screen; None: unscreened or not logged
 
 
 @dataclass
@@ -238,7 +239,7 @@ def _plan_and_execute(
     def finished(planned: Planned, work: list[Execution], outcomes: list[ExecutionResult]) -> list[Trial]:
         report(f"{task}: executing", len(work))
         return [
-            Trial(task, method, seed, plan.seconds, outcome, item.candidates[0])
+            Trial(task, method, seed, plan.seconds, outcome, item.candidates[0], plan.passed_screen)
             for (method, seed, plan), item, outcome in zip(planned, work, outcomes, strict=True)
         ]
 
@@ -291,12 +292,16 @@ def summarise(result: BenchResult) -> dict[str, Any]:
             n = len(trials)
             if n == 0:
                 continue  # a report of a partial log: a method not run on this task yet
+            screened = [t for t in trials if t.passed_screen is not None]
             tasks[task][method] = {
                 "top1": sum(t.result.top1_success for t in trials) / n,
                 "any5": sum(t.result.any_success for t in trials) / n,
                 "trials": n,
                 "plan_seconds_median": statistics.median(t.plan_seconds for t in trials),
                 "failures": failure_table(task, trials),
+                # Trials whose candidates all failed the screen (their top-1 is the method's own
+                # best, unscreened), of those where the log says; None: it does not say.
+                "screen_fallbacks": sum(t.passed_screen == 0 for t in screened) if screened else None,
             }
         if not tasks[task]:
             del tasks[task]  # a report of a partial log: a task not run yet

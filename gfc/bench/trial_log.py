@@ -60,6 +60,7 @@ def trial_to_json(trial: Trial) -> dict[str, Any]:
         # Six decimals (a micrometre, a microradian) keep the log small; a key-frame replay says
         # whether it reproduced the recorded outcome.
         "top1_actions": [None if a is None else [round(v, 6) for v in a] for a in trial.top1_actions],
+        "passed_screen": trial.passed_screen,
     }
 
 
@@ -84,6 +85,8 @@ def trial_from_json(data: Mapping[str, Any]) -> Trial:
         float(data["plan_seconds"]),
         result,
         actions,
+        # Logs before session 22 do not say.
+        None if data.get("passed_screen") is None else int(data["passed_screen"]),
     )
 
 

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 from gfc.bench.methods import (
     METHODS,
+    SCREEN_KEEP,
     MissingModelsError,
     PlanSettings,
     chain_only,
@@ -41,7 +42,7 @@ from gfc.pool import InlinePool
 from gfc.tasks import sample_task
 
 TASK = "pot_reorientation"
-ENTRY_KEYS = {"top1", "any5", "trials", "plan_seconds_median", "failures"}
+ENTRY_KEYS = {"top1", "any5", "trials", "plan_seconds_median", "failures", "screen_fallbacks"}
 
 
 def check_failures_add_up(entry: dict[str, object]) -> None:
@@ -116,6 +117,8 @@ def test_methods_return_ranked_candidates_of_the_right_shape(method: str) -> Non
     library = random_library(compile_plan(instance.plan))
     planned = make_method(method, library)(instance, PlanSettings(candidates=6, steps=3))
     assert len(planned.candidates) == 6 and planned.seconds >= 0
+    # Screened by default: how many passed is counted, up to where screening stops.
+    assert planned.passed_screen is not None and 0 <= planned.passed_screen <= SCREEN_KEEP
     for actions in planned.candidates:
         assert [None if a is None else a.shape for a in actions] == [(9,)] * 4
 
@@ -123,9 +126,23 @@ def test_methods_return_ranked_candidates_of_the_right_shape(method: str) -> Non
 # ------------------------------------------------------------------ accounting
 
 
-def trial(seed: int, failure: StepFailure | None, goal: bool) -> Trial:
+def trial(seed: int, failure: StepFailure | None, goal: bool, passed_screen: int | None = None) -> Trial:
     success = failure is None and goal
-    return Trial(TASK, "gfc", seed, 0.1 * seed, ExecutionResult(success, goal, failure, success, 1), ())
+    result = ExecutionResult(success, goal, failure, success, 1)
+    return Trial(TASK, "gfc", seed, 0.1 * seed, result, (), passed_screen)
+
+
+def test_screen_fallbacks_count_the_trials_no_candidate_of_which_passed() -> None:
+    logged = [
+        trial(0, None, True, 0),
+        trial(1, None, True, 3),
+        trial(2, None, False, 0),
+        trial(3, None, True),
+    ]
+    entry = summarise(BenchResult([TASK], ["gfc"], logged))["tasks"][TASK]["gfc"]
+    assert entry["screen_fallbacks"] == 2  # the unlogged trial counts neither way
+    unlogged = summarise(BenchResult([TASK], ["gfc"], [trial(0, None, True)]))["tasks"][TASK]["gfc"]
+    assert unlogged["screen_fallbacks"] is None
 
 
 def test_failure_table_counts_each_trial_once() -> None:
@@ -227,6 +244,7 @@ def test_ci_sized_run_writes_report_json_plot_and_frames(tmp_path: Path) -> None
         assert entry["trials"] == 2
         assert 0.0 <= entry["top1"] <= entry["any5"] <= 1.0
         assert entry["plan_seconds_median"] >= 0.0
+        assert 0 <= entry["screen_fallbacks"] <= entry["trials"]
         check_failures_add_up(entry)
         assert [s["step"] for s in entry["failures"]["steps"]] == [0, 1, 2, 3]
 

@@ -52,9 +52,10 @@ finite = st.floats(min_value=-10, max_value=10, allow_nan=False)
     failure=st.one_of(
         st.none(), st.builds(StepFailure, st.integers(0, 20), st.text(), st.integers(1, 3), st.text())
     ),
+    passed=st.one_of(st.none(), st.integers(0, 5)),
 )
 def test_a_trial_survives_json_up_to_six_decimals(
-    actions: list[list[float] | None], failure: StepFailure | None
+    actions: list[list[float] | None], failure: StepFailure | None, passed: int | None
 ) -> None:
     trial = Trial(
         TASK,
@@ -63,9 +64,11 @@ def test_a_trial_survives_json_up_to_six_decimals(
         0.5,
         ExecutionResult(False, True, failure, True, 3),
         tuple(None if a is None else tuple(a) for a in actions),
+        passed,
     )
     back = trial_from_json(json.loads(json.dumps(trial_to_json(trial))))
     assert back.result == trial.result and (back.task, back.method, back.seed) == (TASK, "gfc", 7)
+    assert back.passed_screen == passed
     assert len(back.top1_actions) == len(trial.top1_actions)
     for got, want in zip(back.top1_actions, trial.top1_actions, strict=True):
         assert (got is None) == (want is None)

@@ -15,6 +15,7 @@ from gfc.sim.panda import FINGER_MAX
 from gfc.sim.skills import placing
 from gfc.sim.skills.placing import RELEASE_TRAVEL
 from gfc.sim.world import World
+from gfc.tasks import sample_task
 from tests.sim.block_to_box import BLOCK, BOX, block_to_box_plan
 
 
@@ -74,3 +75,25 @@ def test_a_placement_with_room_for_the_fingers_is_put_down_as_commanded() -> Non
         :2, 1
     ]
     assert abs(float(hand_axis @ axis)) / np.linalg.norm(hand_axis) > math.cos(math.radians(10.0))
+
+
+# Hook Reach T1 seed 45, independent sampling's top-1 (log docs/bench/trials/single_arm_s22_hook.jsonl):
+# pick the hook, pull the block, lay the hook on the rack at the edge of the arm's workspace.
+_HOOK_TO_THE_RACK = [
+    [-0.09249, -0.046885, 0.018509, -0.999913, -0.012354, -0.004703, -0.01233, 0.999911, -0.005007],
+    [0.045136, 0.033439, 0.150113, 0.145005],
+    [-0.03935, 0.020914, 0.122781, -0.048068, 0.998844, -0.00055, -0.998844, -0.048068, -0.000501],
+]
+
+
+@pytest.mark.slow
+def test_a_hand_that_cannot_lift_straight_off_a_placement_goes_back_the_way_it_came() -> None:
+    """At the rack the released hand has no IK solution for the top of a straight lift
+    ("cannot move in a straight line to the retreat" until session 22, though the hand had come
+    down that line); it retraces the descent's joint path instead and ends above the hook."""
+    instance = sample_task("hook_reach_t1", 45)
+    plan = instance.plan.model_copy(update={"skeleton": instance.plan.skeleton[:3], "goal": []})
+    outcome = execute_plan(plan, [np.asarray(a) for a in _HOOK_TO_THE_RACK], seed=45)
+    assert [s.success for s in outcome.steps] == [True, True, True], outcome.steps[-1].reason
+    hand, hook = outcome.steps[-1].poses["right"], outcome.steps[-1].poses["hook"]
+    assert hand[2] - hook[2] > placing.PLACE_APPROACH

@@ -263,10 +263,11 @@ def straight(
     speed: float = 0.5,
     finger: float | None = None,
     guard: CollisionFn | None = None,
-) -> None:
+) -> list[FloatArray]:
     """Move the end effector in a straight line (approach, retreat, lift); contact is allowed.
     ``finger``: the finger command on the way (default: keep the grip, or open); ``guard``: a
-    collision test every joint waypoint must pass (type 2 otherwise, nothing moved)."""
+    collision test every joint waypoint must pass (type 2 otherwise, nothing moved). Returns the
+    joint waypoints driven (the first: the joints it started from)."""
     start = ee(ctx, robot)
     poses = interpolate_poses(start, world_from_ee, waypoint_count(start, world_from_ee))
     path = cartesian_joint_path(ctx.world, robot, joints(ctx, robot), poses, ctx.rng)
@@ -281,6 +282,7 @@ def straight(
             )
     fingers = gripper_target(ctx.world, robot) if finger is None else finger
     execute_paths(ctx.world, {robot: path}, {robot: fingers}, speed=speed)
+    return path
 
 
 def translated(world_from_frame: FloatArray, offset: Sequence[float] | FloatArray) -> FloatArray:

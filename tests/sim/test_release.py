@@ -77,7 +77,7 @@ def test_a_placement_with_room_for_the_fingers_is_put_down_as_commanded() -> Non
     assert abs(float(hand_axis @ axis)) / np.linalg.norm(hand_axis) > math.cos(math.radians(10.0))
 
 
-# Hook Reach T1 seed 45, independent sampling's top-1 (log docs/bench/trials/single_arm_s22_hook.jsonl):
+# Hook Reach T1 seed 45, independent sampling's top-1 (log docs/bench/trials/single_arm_s22_c0ef14c_hook.jsonl):
 # pick the hook, pull the block, lay the hook on the rack at the edge of the arm's workspace.
 _HOOK_TO_THE_RACK = [
     [-0.09249, -0.046885, 0.018509, -0.999913, -0.012354, -0.004703, -0.01233, 0.999911, -0.005007],

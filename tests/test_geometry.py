@@ -339,6 +339,19 @@ def test_palm_clear_turns_with_the_scene(scene_yaw: float, pitch: float) -> None
     assert float(still) == pytest.approx(max(0.0, -math.sin(pitch)), abs=1e-9)
 
 
+# A pull by an arm whose base is at the origin, of a 4 cm block on the x axis; the hook's tip
+# frame 10 cm across its x axis, its bar 1 cm half-wide.
+_PULL_PARAMS: dict[str, object] = {
+    "sign": -1.0,
+    "base": [0.0, 0.0, 0.0],
+    "tip": [0.0, 0.1, 0.0],
+    "bar_half_x": 0.01,
+    "half_extents": [0.02, 0.02, 0.02],
+    "lateral": [0.0, 0.2],
+}
+_PULL_ALONG_THE_LINE = torch.tensor([[0.03, 0.04, 0.1, 0.0]], dtype=torch.float64)  # x, y, r, theta
+
+
 def test_stroke_margins_weigh_by_their_gain_and_a_pull_clears_the_shaft() -> None:
     """A pull of a 4 cm block straight towards the base (at the origin): the hook's bar (1 cm
     half-width) touches the block's far side (gap 0) and the block's centre is 6 cm across the
@@ -346,16 +359,8 @@ def test_stroke_margins_weigh_by_their_gain_and_a_pull_clears_the_shaft() -> Non
     shaft's edge at 5 cm, the block's near side (2 cm from its centre) needs 7 cm across, so it is
     1 cm outside the face, again times the gain. Sliding is unweighted."""
     block, after = _node(0.5, 0.0, 0.02), _node(0.4, 0.0, 0.02)
-    action = torch.tensor([[0.03, 0.04, 0.1, 0.0]], dtype=torch.float64)  # x, y, r, theta
-    params = {
-        "sign": -1.0,
-        "base": [0.0, 0.0, 0.0],
-        "tip": [0.0, 0.1, 0.0],
-        "bar_half_x": 0.01,
-        "half_extents": [0.02, 0.02, 0.02],
-        "lateral": [0.0, 0.2],
-        "clearance": 0.01,
-    }
+    action = _PULL_ALONG_THE_LINE
+    params = {**_PULL_PARAMS, "clearance": 0.01}
     plain = constraints.stroke([block, after, action], params).numpy()[0]
     np.testing.assert_allclose(plain, [0.0, 0.0, 0.0, 0.01], atol=1e-9)
     weighed = constraints.stroke([block, after, action], {**params, "margin_gain": 4.0, "shaft_edge": 0.05})
@@ -379,17 +384,7 @@ def test_a_stroke_meeting_its_block_askew_pays_the_excess_turn(
     block's face is turned from the hook's by its yaw, a quarter turn being the same box: past
     30 degrees the excess (rad) times the block's 2 cm half side, times the margin gain."""
     block = _node(0.5, 0.0, 0.02, math.radians(block_yaw_deg))
-    action = torch.tensor([[0.03, 0.04, 0.1, 0.0]], dtype=torch.float64)
-    params = {
-        "sign": -1.0,
-        "base": [0.0, 0.0, 0.0],
-        "tip": [0.0, 0.1, 0.0],
-        "bar_half_x": 0.01,
-        "half_extents": [0.02, 0.02, 0.02],
-        "lateral": [0.0, 0.2],
-        "margin_gain": 4.0,
-        "max_turn": math.radians(30.0),
-    }
-    out = constraints.stroke([block, block, action], params)
+    params = {**_PULL_PARAMS, "margin_gain": 4.0, "max_turn": math.radians(30.0)}
+    out = constraints.stroke([block, block, _PULL_ALONG_THE_LINE], params)
     assert out.shape == (1, 5)
     assert float(out[0, 4]) == pytest.approx(4.0 * math.radians(excess_deg) * 0.02, abs=1e-9)

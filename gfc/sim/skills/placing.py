@@ -78,7 +78,7 @@ def _retreat(ctx: SkillContext, robot: str, descent: list[FloatArray], finger: f
     tracked from there (a placement at the edge of the workspace, as the hook's on the rack: IK
     from the released hand finds no solution for the line's top), back along the descent's own
     joint path, which came down that line. Before this, 48 top-1 failures of the trial logs in
-    docs/bench/trials (sessions 9-22, every task) were that retreat, after a good placement."""
+    docs/bench/trials (most tasks) were that retreat, after a good placement."""
     up = translated(ee(ctx, robot), [0.0, 0.0, PLACE_APPROACH])
     try:
         straight(ctx, robot, up, "the retreat", finger=finger)

@@ -473,6 +473,7 @@ class Screen:
             p = world_from_ee[:3, 3]
             raise _Infeasible(i, f"{robot}: out of reach for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
         check = self._collision_check(state, robot, ignore_others, allow, held_only)
+        self_check = self_collision_fn(self.world, robot)
         aimed = aimed_home(mirror.robots[robot].world_from_base, world_from_ee)
         # Seeded first: the current joints, home aimed at the target, home, and the latest
         # solutions found for this arm (candidates of one plan ask for similar poses, and side
@@ -496,7 +497,7 @@ class Screen:
                     solution,
                     [world_from_ee, *follow],
                     self.rng,
-                    self_collision_fn(self.world, robot),
+                    self_check,
                 )
             ):
                 dead_ends += 1

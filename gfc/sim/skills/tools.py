@@ -66,6 +66,12 @@ class StrokePoses:
     direction: FloatArray  # (3,) unit travel direction (world, horizontal)
 
 
+def _yaw_rotation(yaw: float) -> FloatArray:
+    """The 3x3 rotation about the world's z axis by ``yaw`` (rad)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def stroke_poses(
     world_from_base: FloatArray,
     world_from_target: FloatArray,
@@ -88,8 +94,7 @@ def stroke_poses(
     object_from_tip = pose7_to_matrix(tool_kind.frame("tip"))
     # The tool lies flat: its bottom face at table height while it works.
     world_from_tool = np.eye(4)
-    c, s = math.cos(yaw), math.sin(yaw)
-    world_from_tool[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    world_from_tool[:3, :3] = _yaw_rotation(yaw)
     world_from_tool[:3, 3] = tip_world[:3] - world_from_tool[:3, :3] @ object_from_tip[:3, 3]
     world_from_tool[2, 3] = world_from_target[2, 3] + 0.002
     start = world_from_tool @ invert(ee_from_object)
@@ -115,8 +120,7 @@ class StrokeContact:
         """The target's pose after the stroke: carried ``travel`` along ``direction`` and turned
         by ``-turn`` about its centre, its face flat against the tool's."""
         out = translated(world_from_target, self.travel * direction)
-        c, s = math.cos(-self.turn), math.sin(-self.turn)
-        out[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ out[:3, :3]
+        out[:3, :3] = _yaw_rotation(-self.turn) @ out[:3, :3]
         return out
 
 

@@ -8,7 +8,8 @@ import pytest
 
 from gfc.plan.schema import Scene
 from gfc.sim.bodies import TABLE_TOP_Z
-from gfc.sim.collision import first_collision_on_segment, make_collision_fn
+from gfc.sim.collision import Collision, first_collision_on_segment, make_collision_fn, self_collision_fn
+from gfc.sim.control import tracks_lines
 from gfc.sim.ik import solve_ik
 from gfc.sim.motion import plan_motion
 from gfc.sim.panda import HOME_JOINTS, arm_joints
@@ -144,3 +145,28 @@ def test_a_carried_object_in_a_fixed_one_is_a_collision() -> None:
             assert (None if hit is None else (hit.moving, hit.other)) == (
                 None if expected is None else ("block", expected)
             ), f"{depth * 100:.1f} cm into the bar, allowed {set(allowed)}"
+
+
+def test_the_self_collision_test_sees_the_arm_alone_and_guards_tracked_lines() -> None:
+    """``self_collision_fn`` finds the folded arm and nothing else; a straight line tracked from
+    a free configuration fails ``tracks_lines`` once its guard refuses a waypoint."""
+    with build_world(SCENE) as world:
+        check = self_collision_fn(world, "right")
+        home = np.asarray(HOME_JOINTS)
+        assert check(home) is None
+        folded = home.copy()
+        folded[3], folded[5] = -2.84, 0.78
+        hit = check(folded)
+        assert hit is not None and hit.other.startswith("itself"), hit
+        rng = np.random.default_rng(0)
+        start = world.mirror.robots["right"].world_from_base @ frame(
+            [0.45, 0.0, 0.3], np.diag([1.0, -1.0, -1.0])
+        )
+        q = solve_ik(world, "right", start, home, rng)
+        assert q is not None
+        lifted = start.copy()
+        lifted[2, 3] += 0.05
+        assert tracks_lines(world, "right", q, [start, lifted], rng, guard=check)
+        assert not tracks_lines(
+            world, "right", q, [start, lifted], rng, guard=lambda _: Collision("right", "x")
+        )

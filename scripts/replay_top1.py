@@ -11,7 +11,9 @@ print the logged outcome beside today's (a replay at the logging commit reproduc
 ``--screen``: run the kinematic screen (gfc/sim/screen.py) on the same actions instead, and
 count the logged successes and failures it now refuses. ``--strokes``: execute up to the first
 push or pull and compare where the contact model (gfc/sim/skills/tools.py ``stroke_contact``)
-puts the block with where the simulator does, with the angle the hook's face meets it at.
+puts the block with where the simulator does, with the angle the hook's face meets it at, and
+where both leave it in the frame of an ``aligned`` goal's target on that block (Rearrangement
+Push: the rack).
 """
 
 from __future__ import annotations
@@ -122,16 +124,27 @@ def strokes(rows: list[dict[str, Any]], task: str) -> None:
             stroke_only = plan.model_copy(update={"skeleton": plan.skeleton[k : k + 1], "goal": []})
             outcome = execute_in_world(world, stroke_only, actions[k : k + 1], row["seed"])
             after = object_matrix(world.physics, step.target)
+            aligned = next((g for g in plan.goal if g.type == "aligned" and g.object == step.target), None)
+            goal_frame = None if aligned is None else object_matrix(world.physics, aligned.target)
         planned = float(np.linalg.norm(predicted[:2, 3] - before[:2, 3]))
         moved = float(np.linalg.norm(after[:2, 3] - before[:2, 3]))
         miss = float(np.linalg.norm(after[:2, 3] - predicted[:2, 3]))
         turned = math.degrees(
             folded_turn(math.atan2(after[1, 0], after[0, 0]) - math.atan2(before[1, 0], before[0, 0]))
         )
+        to_goal = ""
+        if goal_frame is not None:
+            # In the goal target's frame (x, y), as the aligned goal is checked in xy.
+            inverse = np.linalg.inv(goal_frame)
+            p_goal, a_goal = (inverse @ predicted[:, 3])[:2] * 100, (inverse @ after[:, 3])[:2] * 100
+            to_goal = (
+                f", to goal (its frame): predicted ({p_goal[0]:+4.1f}, {p_goal[1]:+4.1f}) cm,"
+                f" ended ({a_goal[0]:+4.1f}, {a_goal[1]:+4.1f}) cm"
+            )
         print(
             f"seed {row['seed']:3d}: turn {math.degrees(turn):+5.1f} deg, predicted {planned * 100:5.1f} cm, "
             f"moved {moved * 100:5.1f} cm, off by {miss * 100:4.1f} cm, block turned {turned:+5.1f} deg, "
-            f"stroke {'ok' if outcome.success else 'failed'} {note}",
+            f"stroke {'ok' if outcome.success else 'failed'}{to_goal} {note}",
             flush=True,
         )
 

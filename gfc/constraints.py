@@ -25,7 +25,7 @@ from gfc.geometry import (
     wrap_angle,
     yaw_of_transform,
 )
-from gfc.kinds import object_kind
+from gfc.kinds import PIVOT_TRAVEL, object_kind
 
 Residual = Callable[[Sequence[torch.Tensor], dict[str, Any]], torch.Tensor]
 
@@ -211,7 +211,16 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
     gap = -sign * along - float(params["bar_half_x"]) - half_x  # (B,)
     travel = torch.relu(r - torch.relu(gap))
     direction = sign * torch.stack([torch.cos(tool_yaw), torch.sin(tool_yaw)], dim=-1)  # (B, 2)
-    slid = centre + travel.unsqueeze(-1) * direction
+    across_direction = torch.stack([-direction[..., 1], direction[..., 0]], dim=-1)  # (B, 2)
+    # The block turns flat about the corner the face met (gfc.kinds.pivot_shift, as the screen's
+    # contact model), fading in over the first PIVOT_TRAVEL of the carry.
+    pivot_along, pivot_across = _pivot_shift(turn, ex, ey, half_x)
+    fade = torch.clamp(travel / PIVOT_TRAVEL, max=1.0)
+    slid = (
+        centre
+        + (travel + fade * pivot_along).unsqueeze(-1) * direction
+        + (fade * pivot_across).unsqueeze(-1) * across_direction
+    )
     low, high = params["lateral"]
     if params.get("shaft_edge") is not None:
         # A pull: the block's near side must clear the shaft's edge, or the lowered shaft lands
@@ -233,6 +242,20 @@ def stroke(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tenso
         excess = torch.relu(folded.abs() - float(params["max_turn"])) * ex
         out.append(gain * excess.unsqueeze(-1))
     return torch.cat(out, dim=-1)
+
+
+def _pivot_shift(
+    turn: torch.Tensor, ex: float, ey: float, extent: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """``gfc.kinds.pivot_shift`` batched: (along, across) the stroke, m, each (B,); ``extent``
+    the box's half extent along the stroke at ``turn``."""
+    c, s = torch.cos(turn), torch.sin(turn)
+    sign_c = torch.where(c >= 0, torch.ones_like(c), -torch.ones_like(c))  # sign(c), +1 at 0
+    lateral = -sign_c * ex * s + torch.sign(s) * ey * c
+    flat = turn - torch.atan2(torch.sin(4.0 * turn), torch.cos(4.0 * turn)) / 4.0
+    along_flat = ex * torch.cos(flat).abs() + ey * torch.sin(flat).abs()
+    across_flat = ex * torch.sin(flat).abs() + ey * torch.cos(flat).abs()
+    return along_flat - extent, lateral - torch.sign(lateral) * across_flat
 
 
 def _footprint_axes(pose: torch.Tensor) -> torch.Tensor:

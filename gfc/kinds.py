@@ -55,6 +55,31 @@ MAX_STROKE = 0.3  # m: the longest push or pull the executor makes
 # pulls met more than 35 degrees askew failed (the block moved 0-4 cm of a planned 11-16, or
 # ended out of reach), against 23 failures in all (session 22, scripts/replay_top1.py; ADR 0009).
 MAX_STROKE_TURN = math.radians(35.0)
+# m of the stroke over which a block met askew turns flat against the face (the pivot shift of
+# ``pivot_shift`` fades in over it; the pivot of a block met 30 degrees askew takes 0.9 cm).
+PIVOT_TRAVEL = 0.01
+
+
+def pivot_shift(turn: float, half_x: float, half_y: float) -> tuple[float, float]:
+    """Where a box met askew by a face ends relative to where sliding alone would put it: (along
+    the stroke, across it, m; across is +90 degrees from the direction of travel). ``turn``: the
+    box's yaw from the face's (rad; a half turn gives the same). The face meets the box's
+    leading corner and turns the box about it until a side lies flat; the corner stays where it
+    met the face across the stroke. So the centre ends short by the extent it had along the
+    stroke less the flat box's, and to the side by the corner's lateral offset less the flat
+    box's half side. A 5 cm block met 30 degrees askew: 0.9 cm short, 1.6 cm aside; before this
+    the model turned the block about its centre and replayed Rearrangement Push T1 pushes ended
+    1.5-2 cm aside of it at 28-34 degrees, 0.4 cm at 7 (session 23, scripts/replay_top1.py
+    --strokes)."""
+    c, s = math.cos(turn), math.sin(turn)
+    extent = half_x * abs(c) + half_y * abs(s)
+    # The leading corner, (-sgn c * half_x, sgn s * half_y) turned by ``turn``: its lateral offset.
+    lateral = -math.copysign(1.0, c) * half_x * s + (math.copysign(1.0, s) if s else 0.0) * half_y * c
+    flat = turn - math.atan2(math.sin(4.0 * turn), math.cos(4.0 * turn)) / 4.0  # a quarter turn's multiple
+    along_flat = half_x * abs(math.cos(flat)) + half_y * abs(math.sin(flat))
+    across_flat = half_x * abs(math.sin(flat)) + half_y * abs(math.cos(flat))
+    side = math.copysign(1.0, lateral) if lateral else 0.0
+    return along_flat - extent, lateral - side * across_flat
 
 
 def hook_face_span(sign: float) -> tuple[float, float]:

@@ -14,10 +14,18 @@ from hypothesis import strategies as st
 
 from gfc import constraints
 from gfc.geometry import FloatArray, matrix_to_pose9
-from gfc.kinds import HOOK_SHAFT_Y, HOOK_TIP_BAR_HALF_X, HOOK_TIP_BAR_Y, STROKE_CLEARANCE, object_kind
+from gfc.kinds import (
+    HOOK_SHAFT_Y,
+    HOOK_TIP_BAR_HALF_X,
+    HOOK_TIP_BAR_Y,
+    PIVOT_TRAVEL,
+    STROKE_CLEARANCE,
+    object_kind,
+    pivot_shift,
+)
 from gfc.sim.bodies import recipe_for
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.tools import stroke_contact, stroke_poses
+from gfc.sim.skills.tools import folded_turn, stroke_contact, stroke_poses
 
 HOOK = object_kind("hook")
 BLOCK = object_kind("block").half_extents  # 2.5 cm half sides
@@ -69,16 +77,79 @@ def test_a_turned_block_reaches_further_along_the_stroke() -> None:
     )
 
 
+def _pivoted(
+    block: FloatArray, direction: FloatArray, travel: float, half: tuple[float, float]
+) -> FloatArray:
+    """Brute force: the box's corners, the one the face meets first (least along ``direction``),
+    the face carried ``travel`` past it, the box turned flat with that corner where it met the
+    face across the stroke. The centre's xy."""
+    d = direction[:2] / np.linalg.norm(direction[:2])
+    across = np.array([-d[1], d[0]])
+    corners = [block[:2, :2] @ np.array([sx * half[0], sy * half[1]]) for sx in (-1, 1) for sy in (-1, 1)]
+    lead = min(corners, key=lambda c: float(c @ d))
+    turn = math.atan2(block[1, 0], block[0, 0]) - math.atan2(d[1], d[0])
+    flat_yaw = math.atan2(block[1, 0], block[0, 0]) - folded_turn(turn)
+    c, s = abs(math.cos(flat_yaw - math.atan2(d[1], d[0]))), abs(math.sin(flat_yaw - math.atan2(d[1], d[0])))
+    along_half, across_half = half[0] * c + half[1] * s, half[0] * s + half[1] * c
+    along = float(lead @ d) + travel + along_half
+    side = float(lead @ across)
+    return block[:2, 3] + along * d + (side - math.copysign(across_half, side)) * across
+
+
 @pytest.mark.parametrize("yaw_deg", [-25.0, 10.0, 70.0, 110.0])
 def test_a_block_met_askew_ends_flat_against_the_hooks_face(yaw_deg: float) -> None:
     """The face turns the block until they lie flat: its yaw ends at the tool's (0 here), a
-    quarter turn being the same box, and its centre where the stroke carries it."""
+    quarter turn being the same box, and its centre where the face leaves it, the corner it met
+    staying where it met it across the stroke."""
     block = _pose(TIP_X - 0.07, 0.02, math.radians(yaw_deg))
     contact = stroke_contact(HOOK, np.eye(4), BLOCK, block, r=0.2, sign=-1.0)
-    moved = contact.moved(block, np.array([-1.0, 0.0, 0.0]))
+    direction = np.array([-1.0, 0.0, 0.0])
+    moved = contact.moved(block, direction)
     yaw = math.degrees(math.atan2(moved[1, 0], moved[0, 0]))
     assert yaw % 90.0 == pytest.approx(0.0, abs=1e-6) or yaw % 90.0 == pytest.approx(90.0, abs=1e-6)
-    np.testing.assert_allclose(moved[:3, 3], block[:3, 3] + [-contact.travel, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(
+        moved[:2, 3], _pivoted(block, direction, contact.travel, BLOCK[:2]), atol=1e-12
+    )
+    assert moved[2, 3] == block[2, 3]
+
+
+def test_a_block_met_thirty_degrees_askew_ends_short_and_to_the_side() -> None:
+    """The analytic case: a 5 cm block met 30 degrees askew by a push along +x. Its leading
+    corner is 2.5 (cos 30 + sin 30) = 3.42 cm behind its centre and 2.5 (cos 30 - sin 30) =
+    0.92 cm to its left; turned flat about it, the centre ends 0.92 cm short of sliding alone
+    and 2.5 - 0.92 = 1.58 cm to the right."""
+    along, across = pivot_shift(math.radians(30.0), 0.025, 0.025)
+    assert along == pytest.approx(-0.025 * (math.cos(math.pi / 6) + math.sin(math.pi / 6) - 1.0))
+    assert across == pytest.approx(-0.025 * (1.0 - math.cos(math.pi / 6) + math.sin(math.pi / 6)))
+    assert pivot_shift(0.0, 0.025, 0.025) == (0.0, 0.0)
+    # Mirror images: met the other way askew, it ends as far to the other side.
+    assert pivot_shift(math.radians(-30.0), 0.025, 0.025) == pytest.approx((along, -across))
+
+
+@given(
+    yaw=st.floats(-math.pi, math.pi),
+    heading=st.floats(-math.pi, math.pi),
+    half=st.tuples(st.floats(0.01, 0.05), st.floats(0.01, 0.05)),
+    travel=st.floats(PIVOT_TRAVEL, 0.3),
+)
+def test_the_pivot_shift_is_where_a_box_turned_about_its_leading_corner_ends(
+    yaw: float, heading: float, half: tuple[float, float], travel: float
+) -> None:
+    """``pivot_shift`` (numpy, the screen) and the factor's batched copy against the brute force
+    above, for any box, any heading of the stroke and any yaw within the hook's limit."""
+    turn = yaw - heading
+    assume(abs(folded_turn(turn)) < math.radians(40.0))
+    block = _pose(0.3, -0.1, yaw)
+    direction = np.array([math.cos(heading), math.sin(heading), 0.0])
+    along, across = pivot_shift(turn, *half)
+    perpendicular = np.array([-direction[1], direction[0]])
+    ours = block[:2, 3] + (travel + along) * direction[:2] + across * perpendicular
+    np.testing.assert_allclose(ours, _pivoted(block, direction, travel, half), atol=1e-7)
+    extent = half[0] * abs(math.cos(turn)) + half[1] * abs(math.sin(turn))
+    batched = constraints._pivot_shift(
+        torch.tensor([turn], dtype=torch.float64), *half, torch.tensor([extent], dtype=torch.float64)
+    )
+    np.testing.assert_allclose([float(batched[0][0]), float(batched[1][0])], [along, across], atol=1e-12)
 
 
 @pytest.mark.parametrize(

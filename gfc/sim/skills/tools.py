@@ -30,11 +30,13 @@ from gfc.kinds import (
     HOOK_TIP_BAR_HALF_X,
     MAX_STROKE,
     MAX_STROKE_TURN,
+    PIVOT_TRAVEL,
     STROKE_CLEARANCE,
     STROKE_SIGNS,
     ObjectKind,
     hook_face_span,
     object_kind,
+    pivot_shift,
 )
 from gfc.plan.schema import Step
 from gfc.sim.collision import self_collision_fn
@@ -115,11 +117,15 @@ class StrokeContact:
     gap: float  # m the hand travels before the tool touches the target
     travel: float  # m the target is carried (the stroke's r less the gap)
     turn: float = 0.0  # rad the target's face is turned from the tool's (folded to +-45 deg)
+    pivot: tuple[float, float] = (0.0, 0.0)  # m along and across the stroke: ``pivot_shift``
 
     def moved(self, world_from_target: FloatArray, direction: FloatArray) -> FloatArray:
-        """The target's pose after the stroke: carried ``travel`` along ``direction`` and turned
-        by ``-turn`` about its centre, its face flat against the tool's."""
-        out = translated(world_from_target, self.travel * direction)
+        """The target's pose after the stroke: carried ``travel`` along ``direction``, turned by
+        ``-turn`` flat against the tool's face about the corner the face met (``pivot``)."""
+        fade = min(1.0, self.travel / PIVOT_TRAVEL)
+        across = np.array([-direction[1], direction[0], 0.0])
+        shift = (self.travel + fade * self.pivot[0]) * direction + fade * self.pivot[1] * across
+        out = translated(world_from_target, shift)
         out[:3, :3] = _yaw_rotation(-self.turn) @ out[:3, :3]
         return out
 
@@ -165,7 +171,8 @@ def stroke_contact(
         raise SkillFailure(
             FailureType.PHYSICS, f"the target's centre is {by * 100:.1f} cm to the side: off the hook's face"
         )
-    turn = folded_turn(math.atan2(tool_from_target[1, 0], tool_from_target[0, 0]))
+    yaw = math.atan2(tool_from_target[1, 0], tool_from_target[0, 0])
+    turn = folded_turn(yaw)
     if abs(turn) > MAX_STROKE_TURN:
         raise SkillFailure(
             FailureType.PHYSICS,
@@ -189,7 +196,7 @@ def stroke_contact(
             FailureType.PHYSICS,
             f"the stroke ends {gap * 100:.1f} cm away, {travel * 100:.1f} cm into the target",
         )
-    return StrokeContact(gap, travel, turn)
+    return StrokeContact(gap, travel, turn, pivot_shift(yaw, ex, ey))
 
 
 def _stroke(ctx: SkillContext, step: Step, action: FloatArray, sign: float) -> str:

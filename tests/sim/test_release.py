@@ -97,3 +97,45 @@ def test_a_hand_that_cannot_lift_straight_off_a_placement_goes_back_the_way_it_c
     assert [s.success for s in outcome.steps] == [True, True, True], outcome.steps[-1].reason
     hand, hook = outcome.steps[-1].poses["right"], outcome.steps[-1].poses["hook"]
     assert hand[2] - hook[2] > placing.PLACE_APPROACH
+
+
+# Constrained Packing T1 seed 35: GFC's top-1 pick and placement of block_0 (trial log
+# docs/bench/trials/single_arm_s19.jsonl): the block is set down 5 mm above the box floor,
+# turned a few degrees in the grip.
+_JAMMED_BLOCK = (
+    [-0.004809, -0.003332, 0.028823, -0.005005, 0.999987, 0.000813, 0.999925, 0.004996, 0.011195],
+    [0.038354, -0.037869, 0.015401, -0.994529, 0.104463, 0.000666, -0.104463, -0.994529, -1.4e-05],
+)
+
+
+def _first_placement(seed: int) -> tuple[object, list[np.ndarray]]:
+    instance = sample_task("constrained_packing_t1", seed)
+    plan = instance.plan.model_copy(
+        update={"skeleton": instance.plan.skeleton[:2], "goal": [], "constraints": []}
+    )
+    return plan, [np.asarray(a) for a in _JAMMED_BLOCK]
+
+
+@pytest.mark.slow
+def test_fingers_jammed_on_a_released_block_are_opened_at_the_hands_peak_force(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """At the drive's 40 N the fingers stay wedged on the block (2.7 cm a side of the 3.2
+    commanded) and the retreat lifts it 8 cm out of the box; opened at 140 N, it drops onto the
+    floor and stays. Without the rescue the same placement fails: the scene still jams."""
+    forces: list[float] = []
+
+    def command_fingers(client: int, robot: object, finger: float, force: float = 40.0) -> None:
+        forces.append(force)
+        control_fingers(client, robot, finger, force)
+
+    control_fingers = placing.command_fingers
+    monkeypatch.setattr(placing, "command_fingers", command_fingers)
+    plan, actions = _first_placement(35)
+    outcome = execute_plan(plan, actions, seed=35)  # type: ignore[arg-type]
+    assert outcome.success, outcome.steps[-1].reason
+    assert placing.JAMMED_RELEASE_FORCE in forces
+    monkeypatch.setattr(placing, "_free_jammed_fingers", lambda *args: None)
+    jammed = execute_plan(plan, actions, seed=35)  # type: ignore[arg-type]
+    assert not jammed.success
+    assert "did not stay where it was released" in jammed.steps[-1].reason

@@ -5,12 +5,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.plan.schema import Step
 from gfc.sim.control import execute_paths, open_gripper
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.panda import FINGER_MAX, finger_positions
+from gfc.sim.panda import FINGER_JOINTS, FINGER_MAX, command_fingers, finger_positions
 from gfc.sim.skills.motions import (
     SkillContext,
     ee,
@@ -36,6 +37,9 @@ TILT_TOLERANCE = math.radians(20.0)
 # away, where it stuck at the motor's full force and the retreat dragged the block 5-9 mm
 # (Constrained Packing T3, session 14: 3 of 5 releases in seed 1).
 RELEASE_TRAVEL = 0.006
+JAM_FORCE = 1.0  # N: a finger pressing on the released object this hard is jammed on it
+JAMMED_RELEASE_FORCE = 140.0  # N: the Franka hand's peak grasping force (70 N continuous)
+JAM_STEPS = 60
 
 
 def place(ctx: SkillContext, step: Step, action: FloatArray) -> str:
@@ -57,6 +61,7 @@ def place(ctx: SkillContext, step: Step, action: FloatArray) -> str:
     world_from_goal = world_from_ee @ ee_from_object
     descent = straight(ctx, robot, world_from_ee, f"the placement of {obj}")
     open_gripper(world, robot, finger=release)
+    _free_jammed_fingers(ctx, robot, obj, release)
     _retreat(ctx, robot, descent, release)
     open_gripper(world, robot)  # clear of everything now: the hand ends open, as it always did
     physics_step(world, SETTLE_STEPS)
@@ -84,6 +89,32 @@ def _retreat(ctx: SkillContext, robot: str, descent: list[FloatArray], finger: f
         straight(ctx, robot, up, "the retreat", finger=finger)
     except SkillFailure:
         execute_paths(ctx.world, {robot: [joints(ctx, robot), *reversed(descent)]}, {robot: finger})
+
+
+def _free_jammed_fingers(ctx: SkillContext, robot: str, obj: str, release: float) -> None:
+    """Fingers still pressing on the object they were told to let go of, and on nothing else,
+    are jammed on it: open them with the hand's peak force. A block set down a few millimetres
+    above the box floor and held a few degrees turned in the grip stayed wedged between the pads
+    (35 N each) at the drive's 40 N and at 70 N, and came up 8 cm with the retreat: "did not
+    stay where it was released" (Constrained Packing T1 seed 35 of single_arm_s19.jsonl,
+    replayed at session 23's code; 7 of GFC's 43 logged top-1 failures of Packing T1 and T3,
+    logs single_arm_s19.jsonl and single_arm_s16.jsonl, ended 7-10 cm above the placement). At
+    140 N they open and the block drops onto the floor. A finger that also touches a neighbour
+    or a wall is left alone: at that force it would shove it."""
+    world = ctx.world
+    panda = world.physics.robots[robot]
+    held = world.physics.objects[obj].body
+    contacts = [
+        contact
+        for finger in FINGER_JOINTS
+        for contact in pb.getContactPoints(bodyA=panda.body, linkIndexA=finger, physicsClientId=world.client)
+    ]
+    pressing = any(c[2] == held and c[9] > JAM_FORCE for c in contacts)
+    if not pressing or any(c[2] != held for c in contacts):
+        return
+    command_fingers(world.client, panda, release, force=JAMMED_RELEASE_FORCE)
+    physics_step(world, JAM_STEPS)
+    ctx.notes.append(f"{robot}'s fingers were jammed on {obj}: opened at {JAMMED_RELEASE_FORCE:.0f} N")
 
 
 def release_finger(ctx: SkillContext, robot: str) -> float:

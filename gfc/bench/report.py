@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,14 +31,68 @@ def _pct(value: float) -> str:
     return f"{100 * value:.0f}%"
 
 
+def _reason_key(reason: str) -> str:
+    """A failure reason with its numbers masked: the same failure at another pose or distance."""
+    return _NUMBER.sub("#", reason)
+
+
+_NUMBER = re.compile(r"-?\d+(\.\d+)?")
+REASONS_SHOWN = 6  # per task and method
+SEEDS_SHOWN = 5
+
+
+def failure_reasons_markdown(trials: Sequence[Trial], methods: Sequence[str] = ("gfc",)) -> list[str]:
+    """The commonest top-1 failures of ``methods`` per task, by step, skill and reason (numbers
+    masked), with their count, type and a few seeds: what the failure tables' counts are."""
+    lines = [
+        "## Commonest top-1 failures",
+        "",
+        "Per task and method, the first failures of the top-1 executions grouped by step and reason"
+        " (numbers shown as #), with a few of their seeds; 'goal' is every step done and the goal"
+        " not holding.",
+    ]
+    groups: dict[tuple[str, str], dict[tuple[int, str, str, int], list[int]]] = {}
+    for trial in trials:
+        if trial.method not in methods or trial.result.top1_success:
+            continue
+        failure = trial.result.top1_failure
+        key = (
+            (-1, "", "goal", 0)
+            if failure is None
+            else (failure.step, failure.skill, _reason_key(failure.reason), failure.failure_type)
+        )
+        groups.setdefault((trial.task, trial.method), {}).setdefault(key, []).append(trial.seed)
+    for (task, method), reasons in groups.items():
+        lines += [
+            "",
+            f"### {task}, {method}",
+            "",
+            "| count | step | type | reason | seeds |",
+            "| --- | --- | --- | --- | --- |",
+        ]
+        ranked = sorted(reasons.items(), key=lambda item: (-len(item[1]), item[0]))
+        for (step, skill, reason, kind), seeds in ranked[:REASONS_SHOWN]:
+            where = "-" if step < 0 else f"{step} {skill}"
+            shown = ", ".join(str(s) for s in sorted(seeds)[:SEEDS_SHOWN]) + (
+                ", ..." if len(seeds) > SEEDS_SHOWN else ""
+            )
+            lines.append(f"| {len(seeds)} | {where} | {kind or '-'} | {reason.replace('|', '/')} | {shown} |")
+        rest = sum(len(s) for _, s in ranked[REASONS_SHOWN:])
+        if rest:
+            lines.append(f"| {rest} | | | other reasons | |")
+    return lines
+
+
 def results_markdown(
     summary: dict[str, Any],
     command: str,
     notes: Sequence[str] = (),
     frames: Sequence[KeyFrameStrip] = (),
     markdown_path: Path | None = None,
+    reasons: Sequence[str] = (),
 ) -> str:
-    """The report: task x method table, per-task failure breakdowns, key frames, the command."""
+    """The report: task x method table, per-task failure breakdowns, the commonest failure
+    reasons (``failure_reasons_markdown``), key frames, the command."""
     tasks: dict[str, dict[str, Any]] = summary["tasks"]
     lines = ["# Task benchmark", ""]
     lines += [f"Produced by `{command}`.", ""]
@@ -84,6 +139,8 @@ def results_markdown(
             lines.append(f"| {label} | " + " | ".join(cells) + " |")
         for key, title in (("goal_not_met", "goal not met"), ("succeeded", "succeeded")):
             lines.append(f"| {title} | " + " | ".join(str(methods[m]["failures"][key]) for m in names) + " |")
+    if reasons:
+        lines += ["", *reasons]
     if frames:
         lines += ["", "## Key frames", ""]
         base = markdown_path.parent if markdown_path is not None else Path(".")

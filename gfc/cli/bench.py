@@ -186,7 +186,7 @@ def tasks(
     from rich.table import Table
 
     from gfc.bench.methods import METHODS, MissingModelsError, PlanSettings, needs_models
-    from gfc.bench.report import plot_top1, render_key_frames, results_markdown
+    from gfc.bench.report import failure_reasons_markdown, plot_top1, render_key_frames, results_markdown
     from gfc.bench.tasks import random_weights_library, run_benchmark, summarise
     from gfc.bench.trial_log import TrialLog, log_header
     from gfc.planner.library import SkillLibrary
@@ -278,7 +278,8 @@ def tasks(
         else f"plot: {plot_path}"
     )
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(results_markdown(summary, command, notes, strips, out))
+    reasons = failure_reasons_markdown(result.trials, [m for m in ("gfc",) if m in methods])
+    out.write_text(results_markdown(summary, command, notes, strips, out, reasons))
     if json_file is not None:
         json_file.parent.mkdir(parents=True, exist_ok=True)
         json_file.write_text(json.dumps(summary, indent=2) + "\n")

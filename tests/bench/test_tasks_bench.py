@@ -24,7 +24,7 @@ from gfc.bench.methods import (
     make_method,
     required_models,
 )
-from gfc.bench.report import render_key_frames, results_markdown
+from gfc.bench.report import failure_reasons_markdown, render_key_frames, results_markdown
 from gfc.bench.tasks import (
     FAILURE_TYPES,
     BenchResult,
@@ -171,6 +171,27 @@ def test_failure_table_counts_each_trial_once() -> None:
     text = results_markdown(summary, "gfc bench tasks --trials 6")
     assert f"| {TASK} | gfc | 17% |" in text
     assert "| 0 pick pot (left) | 2/0/0 |" in text
+
+
+def test_the_commonest_failures_group_reasons_that_differ_only_in_numbers() -> None:
+    trials = [
+        trial(0, StepFailure(1, "place", 3, "block did not stay: 7.9 cm away"), False),
+        trial(1, StepFailure(1, "place", 3, "block did not stay: 4.2 cm away"), False),
+        trial(2, StepFailure(0, "pick", 1, "no IK | at (0.61, -0.32)"), False),
+        trial(3, None, False),
+        trial(4, None, True),
+    ]
+    lines = failure_reasons_markdown(trials)
+    assert f"### {TASK}, gfc" in lines
+    rows = [line for line in lines if line.startswith("| ") and "count" not in line and "---" not in line]
+    assert rows == [
+        "| 2 | 1 place | 3 | block did not stay: # cm away | 0, 1 |",
+        "| 1 | - | - | goal | 3 |",
+        "| 1 | 0 pick | 1 | no IK / at (#, #) | 2 |",
+    ]
+    assert failure_reasons_markdown(trials, methods=("random",)) == lines[:3]  # no trials: no tables
+    summary = summarise(BenchResult([TASK], ["gfc"], trials))
+    assert "## Commonest top-1 failures" in results_markdown(summary, "gfc bench tasks", reasons=lines)
 
 
 # ------------------------------------------------------------------ end to end

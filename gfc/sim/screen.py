@@ -37,7 +37,7 @@ import pybullet as pb
 
 from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.kinds import STROKE_SIGNS, ObjectKind, object_kind
-from gfc.plan.schema import Inside, PlanRequest, Step
+from gfc.plan.schema import Aligned, Inside, PlanRequest, SpatialFactorSpec, Step
 from gfc.sim.collision import (
     FINGER_LANDING,
     Carried,
@@ -82,6 +82,13 @@ REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
 OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
 PLACE_OVERLAP = 0.002  # m a released object may overlap a neighbour (contact, numerical slack)
 OPENING_STEPS = 80  # finger positions tried when reading the opening on a held object
+# A walked end state that meets an aligned goal by less than this is passed but ranked after the
+# candidates that meet it with room to spare: the contact model and the placements land within
+# 1-2 mm of the simulator, and 4 of GFC's 7 Rearrangement Push T1 top-1 failures at commit
+# 4a574e9 were plans the walk put 3.9 cm from the rack's centre (4 allowed) that the simulator
+# left at 4.0-5.6 (session 24, scripts/replay_top1.py --strokes).
+GOAL_MARGIN = 0.005  # m
+MARGINAL_KEEP = 2  # screening also stops once keep * this many candidates have passed at all
 
 
 @dataclass(frozen=True)
@@ -89,6 +96,8 @@ class Verdict:
     feasible: bool
     step: int | None = None  # the first step that failed the screen
     reason: str = ""
+    # Feasible, but an aligned goal holds by less than GOAL_MARGIN on the walked end state.
+    marginal: bool = False
 
 
 @dataclass(frozen=True)
@@ -183,6 +192,12 @@ class Screen:
             # ended with the block under the rack.
             missed = [line.removeprefix("FAIL ") for line in report if line.startswith("FAIL ")]
             return Walk(Verdict(False, None, "the goal would not hold: " + "; ".join(missed)), {}, {})
+        if complete:
+            narrow, report = goal_satisfied_on(poses.__getitem__, self._kind, _with_margin(self.plan.goal))
+            if not narrow:
+                missed = [line.removeprefix("FAIL ") for line in report if line.startswith("FAIL ")]
+                reason = f"the goal holds by less than {GOAL_MARGIN * 100:.1f} cm: " + "; ".join(missed)
+                return Walk(Verdict(True, None, reason, marginal=True), poses, openings)
         return Walk(Verdict(True), poses, openings)
 
     # -- one stage ----------------------------------------------------------------------------
@@ -616,17 +631,32 @@ class Screen:
 def screen_order(
     plan: PlanRequest, candidates: Sequence[Sequence[FloatArray | None]], keep: int, seed: int = 0
 ) -> tuple[list[int], list[Verdict | None]]:
-    """Candidate indices re-ordered: those that pass the screen first (in their given order),
-    then the rest (in their given order). Screening stops once ``keep`` have passed; unscreened
-    candidates get verdict ``None`` and keep their place after the passed ones."""
+    """Candidate indices re-ordered: those that pass the screen with room to spare first, then
+    those that pass by less than ``GOAL_MARGIN`` (``Verdict.marginal``), then the rest, each
+    group in its given order. Screening stops once ``keep`` have passed with room to spare, or
+    ``keep * MARGINAL_KEEP`` have passed at all; unscreened candidates get verdict ``None`` and
+    keep their place after the passed ones."""
     verdicts: list[Verdict | None] = [None] * len(candidates)
-    passed: list[int] = []
+    clear: list[int] = []
+    marginal: list[int] = []
     with Screen(plan, seed) as screen:
         for k, actions in enumerate(candidates):
-            if len(passed) >= keep:
+            if len(clear) >= keep or len(clear) + len(marginal) >= keep * MARGINAL_KEEP:
                 break
-            verdicts[k] = screen.check(actions)
-            if verdicts[k].feasible:  # type: ignore[union-attr]
-                passed.append(k)
+            verdict = verdicts[k] = screen.check(actions)
+            if verdict.feasible:
+                (marginal if verdict.marginal else clear).append(k)
+    passed = clear + marginal
     rest = [k for k in range(len(candidates)) if k not in passed]
     return passed + rest, verdicts
+
+
+def _with_margin(goal: Sequence[SpatialFactorSpec]) -> list[SpatialFactorSpec]:
+    """``goal`` with each aligned predicate's tolerance narrowed by ``GOAL_MARGIN`` (to no less
+    than half of it)."""
+    return [
+        spec.model_copy(update={"tolerance": max(spec.tolerance - GOAL_MARGIN, spec.tolerance / 2)})
+        if isinstance(spec, Aligned)
+        else spec
+        for spec in goal
+    ]

@@ -201,6 +201,37 @@ def test_a_push_that_stops_short_fails_on_the_goal() -> None:
     assert "the goal would not hold: aligned(block, rack)" in verdict.reason
 
 
+def test_a_push_that_leaves_the_block_just_inside_the_goal_passes_as_marginal() -> None:
+    """3.7 cm from the rack's centre (4 allowed) passes, marked marginal: within GOAL_MARGIN of
+    the edge, where the contact model's millimetres decide; 2 cm passes with room to spare."""
+    push = _step_of("rearrangement_push_t1", "push")
+    edge = _screen_shifted("rearrangement_push_t1", push, 2, -0.037)
+    assert edge.feasible and edge.marginal
+    assert "the goal holds by less than 0.5 cm: aligned(block, rack): 3.7 cm" in edge.reason
+    roomy = _screen_shifted("rearrangement_push_t1", push, 2, -0.02)
+    assert roomy.feasible and not roomy.marginal
+
+
+def test_screen_order_puts_marginal_passes_after_clear_ones() -> None:
+    task = "rearrangement_push_t1"
+    push = _step_of(task, "push")
+    good = _reference(task, 0)
+    edge = list(good)
+    assert good[push] is not None
+    edge[push] = good[push] + np.array([0.0, 0.0, -0.037, 0.0])
+    plan = sample_task(task, 0).plan
+    order, verdicts = screen_order(plan, [edge, good, edge, good], keep=1)
+    assert order == [1, 0, 2, 3]  # the clear pass first; screening stopped at it
+    assert verdicts[0] is not None and verdicts[0].marginal
+    assert verdicts[2] is None and verdicts[3] is None
+    # Marginal passes alone: screening stops at keep * MARGINAL_KEEP of them, in their order.
+    order, verdicts = screen_order(plan, [edge] * 4, keep=1)
+    assert order == [0, 1, 2, 3]
+    assert [v is not None for v in verdicts] == [True] * screen_module.MARGINAL_KEEP + [False] * (
+        4 - screen_module.MARGINAL_KEEP
+    )
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("task", ["hook_reach_t1", "rearrangement_push_t1"])
 def test_where_the_screen_slides_a_stroked_block_is_where_the_simulator_leaves_it(

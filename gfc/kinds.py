@@ -60,6 +60,13 @@ MAX_STROKE_TURN = math.radians(35.0)
 PIVOT_TRAVEL = 0.01
 
 
+def folded_turn(yaw: float) -> float:
+    """A box's yaw relative to a face, folded to [-45, 45) degrees (a box is the same every
+    quarter turn)."""
+    quarter = math.pi / 2
+    return (yaw + quarter / 2) % quarter - quarter / 2
+
+
 def pivot_shift(turn: float, half_x: float, half_y: float) -> tuple[float, float]:
     """Where a box met askew by a face ends relative to where sliding alone would put it: (along
     the stroke, across it, m; across is +90 degrees from the direction of travel). ``turn``: the
@@ -75,7 +82,7 @@ def pivot_shift(turn: float, half_x: float, half_y: float) -> tuple[float, float
     extent = half_x * abs(c) + half_y * abs(s)
     # The leading corner, (-sgn c * half_x, sgn s * half_y) turned by ``turn``: its lateral offset.
     lateral = -math.copysign(1.0, c) * half_x * s + (math.copysign(1.0, s) if s else 0.0) * half_y * c
-    flat = turn - math.atan2(math.sin(4.0 * turn), math.cos(4.0 * turn)) / 4.0  # a quarter turn's multiple
+    flat = turn - folded_turn(turn)  # a quarter turn's multiple
     along_flat = half_x * abs(math.cos(flat)) + half_y * abs(math.sin(flat))
     across_flat = half_x * abs(math.sin(flat)) + half_y * abs(math.cos(flat))
     side = math.copysign(1.0, lateral) if lateral else 0.0

@@ -28,11 +28,11 @@ from typing import Any
 import numpy as np
 
 from gfc.geometry import FloatArray
-from gfc.kinds import STROKE_SIGNS, object_kind
+from gfc.kinds import STROKE_SIGNS, folded_turn, object_kind
 from gfc.sim.execute import execute_in_world, execute_plan
 from gfc.sim.outcome import SkillFailure
 from gfc.sim.screen import Screen
-from gfc.sim.skills.tools import folded_turn, stroke_contact, stroke_poses
+from gfc.sim.skills.tools import stroke_contact, stroke_poses
 from gfc.sim.world import build_world, object_matrix
 from gfc.tasks import sample_task
 

@@ -20,12 +20,13 @@ from gfc.kinds import (
     HOOK_TIP_BAR_Y,
     PIVOT_TRAVEL,
     STROKE_CLEARANCE,
+    folded_turn,
     object_kind,
     pivot_shift,
 )
 from gfc.sim.bodies import recipe_for
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.skills.tools import folded_turn, stroke_contact, stroke_poses
+from gfc.sim.skills.tools import stroke_contact, stroke_poses
 
 HOOK = object_kind("hook")
 BLOCK = object_kind("block").half_extents  # 2.5 cm half sides

@@ -34,6 +34,7 @@ from gfc.kinds import (
     STROKE_CLEARANCE,
     STROKE_SIGNS,
     ObjectKind,
+    folded_turn,
     hook_face_span,
     object_kind,
     pivot_shift,
@@ -128,13 +129,6 @@ class StrokeContact:
         out = translated(world_from_target, shift)
         out[:3, :3] = _yaw_rotation(-self.turn) @ out[:3, :3]
         return out
-
-
-def folded_turn(yaw: float) -> float:
-    """A box's yaw relative to a face, folded to [-45, 45) degrees (a box is the same every
-    quarter turn)."""
-    quarter = math.pi / 2
-    return (yaw + quarter / 2) % quarter - quarter / 2
 
 
 def stroke_contact(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -365,7 +365,7 @@ def upright_first(poses: Sequence[FloatArray], limit: int = 4) -> list[FloatArra
     return [poses[0], *[pose for pose in rest if pose[2, 2] < -DOWN_COS][: limit - 1]]
 
 
-def first_reachable(poses: Sequence[FloatArray], attempt: Callable[[FloatArray], None]) -> FloatArray:
+def first_reachable(poses: Iterable[FloatArray], attempt: Callable[[FloatArray], None]) -> FloatArray:
     """The first of equivalent hand poses ``attempt`` (a ``reach`` to it) succeeds for; the
     failure for the first pose if none. A ``reach`` that fails has not moved the arm. The
     executor tries the equivalents only once the commanded pose has failed, so every execution
@@ -394,7 +394,7 @@ def hands_clear_first(
     hands: Sequence[FloatArray],
     finger: float,
     around_object: bool = False,
-) -> list[FloatArray]:
+) -> Iterator[FloatArray]:
     """Equivalent hand poses (the commanded one first; ``symmetries``) reordered so that those
     where the arm, its fingers at ``finger`` (m a finger), touches nothing but ``obj`` come first,
     each group in the given order; where none is clear the order is kept. A commanded pose that
@@ -410,7 +410,8 @@ def hands_clear_first(
     same grasp turned a quarter turn has the offset across the fingers, and they close on the
     cube's faces (ADR 0011)."""
     if len(hands) < 2:
-        return list(hands)
+        yield from hands
+        return
     sync_mirror(ctx.world)
     check = make_collision_fn(
         ctx.world, [robot], fingers={robot: 2 * finger}, allowed=frozenset({(robot, obj)})
@@ -427,7 +428,15 @@ def hands_clear_first(
         set_joints(ctx.world.mirror.client, ctx.world.mirror.robots[robot], q, finger)
         return finger_depth(ctx.world, robot, obj) <= FINGER_LANDING
 
-    verdicts = [clear(hand) for hand in hands]
-    return [h for h, ok in zip(hands, verdicts, strict=True) if ok] + [
-        h for h, ok in zip(hands, verdicts, strict=True) if not ok
-    ]
+    # Lazily, in the given order: a clear pose is handed on as soon as it is found, so that when
+    # the commanded pose is clear and reachable (nearly always) no other pose is checked. A
+    # reach that fails moves nothing and the checks draw on their own random stream, so the
+    # order, and every execution, is that of checking them all first (which took a quarter of
+    # a Rearrangement Push execution's time, session 24's profile).
+    blocked: list[FloatArray] = []
+    for hand in hands:
+        if clear(hand):
+            yield hand
+        else:
+            blocked.append(hand)
+    yield from blocked

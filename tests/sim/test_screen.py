@@ -212,6 +212,34 @@ def test_a_push_that_leaves_the_block_just_inside_the_goal_passes_as_marginal() 
     assert roomy.feasible and not roomy.marginal
 
 
+@pytest.mark.parametrize(
+    ("grasp_turn", "gap", "doubt"), [(0, 0.009, False), (90, 0.04, False), (90, 0.009, True)]
+)
+def test_fingers_closing_towards_a_neighbour_9mm_away_make_a_placement_marginal(
+    grasp_turn: float, gap: float, doubt: bool
+) -> None:
+    """Packing T1's second block placed ``gap`` beside the first along the box's y: fingers that
+    close along x pass by the neighbour; turned a quarter (closing along y) they reach some
+    16 mm into it at 9 mm, and the candidate passes as marginal; 4 cm leaves room for them."""
+    task = "constrained_packing_t1"
+    actions = _reference(task, 0)
+    first, pick, second = actions[1], actions[2], actions[3]
+    assert first is not None and pick is not None and second is not None
+    turn = np.eye(4)
+    c, s = math.cos(math.radians(grasp_turn)), math.sin(math.radians(grasp_turn))
+    turn[:2, :2] = [[c, -s], [s, c]]
+    actions[2] = matrix_to_pose9(turn @ pose9_to_matrix(pick))
+    placed = second.copy()
+    placed[0], placed[1] = first[0], first[1] + 0.05 + gap
+    actions[3] = placed
+    with Screen(sample_task(task, 0).plan) as screen:
+        verdict = screen.check(actions)
+    assert verdict.feasible
+    assert verdict.marginal == doubt, verdict
+    if doubt:
+        assert "step 3: the fingers on block_1 reach" in verdict.reason and "into block_0" in verdict.reason
+
+
 def test_screen_order_puts_marginal_passes_after_clear_ones() -> None:
     task = "rearrangement_push_t1"
     push = _step_of(task, "push")

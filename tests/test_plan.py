@@ -522,16 +522,19 @@ def test_apart_needs_two_objects_and_reads_their_footprints() -> None:
 
 def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
     """Objects placed on one target and left there: each later place action keeps clear of
-    theirs, and a block placed into a box is released inside its walls (both factors on the
-    place actions, poses in the target's frame). A hammer, too long to fit the box at any yaw,
+    theirs, and so do the fingers placing it (``fingers_apart``, with its grasp), and a block
+    placed into a box is released inside its walls (factors on the place actions, poses in the
+    target's frame). A hammer, too long to fit the box at any yaw,
     gets no ``placed_inside``; an object picked up again stops counting."""
     graph = compile_plan(sample_task("constrained_packing_t1", 0).plan)
     places = [a.id for a in graph.actions if graph.temporal[a.step].skill == "place"]
+    picks = [a.id for a in graph.actions if graph.temporal[a.step].skill == "pick"]
     implied = [(f.type, f.actions) for f in graph.spatial if f.source == "implied" and f.type != "reach"]
     expected = []
-    for k, place in enumerate(places):
+    for k, (pick, place) in enumerate(zip(picks, places, strict=True)):
         expected += [("placed_inside", (place,)), ("placed_reach", (place,))]
-        expected += [("apart", (earlier, place)) for earlier in places[:k]]
+        for earlier in places[:k]:
+            expected += [("apart", (earlier, place)), ("fingers_apart", (earlier, place, pick))]
     assert implied == expected
     assert not [
         f for f in compile_plan(sample_task("hammer_place", 0).plan).spatial if f.type == "placed_inside"

@@ -294,12 +294,12 @@ def apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor
     return torch.relu(float(params["clearance"]) - gap)
 
 
-def _finger_gap(
-    placed: torch.Tensor, box_from_grasp: torch.Tensor, neighbour: torch.Tensor, params: dict[str, Any]
-) -> torch.Tensor:
-    """How far the two fingers of a hand at ``box_from_grasp`` (B, 4, 4), closed on a box placed
-    at ``placed`` (pose9), keep from ``neighbour``'s footprint (pose9): the smaller of the two
-    fingers' footprint separations. (B, 1)
+def _fingers(
+    placed: torch.Tensor, box_from_grasp: torch.Tensor, params: dict[str, Any]
+) -> list[torch.Tensor]:
+    """The footprints of the two fingers of a hand at ``box_from_grasp`` (B, 4, 4) closed on a box
+    placed at ``placed`` (pose9), as pose9s (B, 9) with half sizes ``finger_thickness / 2`` along
+    x (the closing axis) and ``finger_width / 2`` along y.
 
     The fingers close along the hand's y axis until both meet the box, which centres it between
     them; each finger's footprint is ``finger_thickness`` beyond the box's face along that axis
@@ -314,33 +314,51 @@ def _finger_gap(
     extent = hx * (axes[..., 0, :] * closing).sum(-1).abs() + hy * (axes[..., 1, :] * closing).sum(-1).abs()
     centre = pose[..., :2, 3]
     lateral = ((box_from_grasp[..., :2, 3] - centre) * across).sum(-1, keepdim=True)  # (B, 1)
-    thickness, width = float(params["finger_thickness"]), float(params["finger_width"])
-    reach = (extent + thickness / 2).unsqueeze(-1)  # (B, 1): finger centre from the box centre
+    reach = (extent + float(params["finger_thickness"]) / 2).unsqueeze(-1)  # (B, 1)
     zeros = closing.new_zeros((*closing.shape[:-1], 1))
-    # A finger's footprint as a pose9: x along the closing axis, y across it.
-    rotation = torch.cat([closing, zeros, across, zeros], dim=-1)  # (B, 6)
-    gaps = []
-    for side in (1.0, -1.0):
-        finger_xy = centre + side * reach * closing + lateral * across
-        finger = torch.cat([finger_xy, zeros, rotation], dim=-1)  # (B, 9)
-        gaps.append(
-            footprint_separation(finger, neighbour, (thickness / 2, width / 2), params["target_half_extents"])
-        )
-    return torch.minimum(*gaps)
+    rotation = torch.cat([closing, zeros, across, zeros], dim=-1)  # (B, 6): x closing, y across
+    return [
+        torch.cat([centre + side * reach * closing + lateral * across, zeros, rotation], dim=-1)
+        for side in (1.0, -1.0)
+    ]
 
 
-def fingers_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
-    """The fingers placing a box keep ``clearance`` from a box placed before it on the same
-    target: inputs (the neighbour's place action, this box's place action, its grasp action),
-    poses in the target's frame and the grasp in the box's frame. The executor may turn the hand
-    a quarter about the box (a block is the same block turned; ``hands_clear_first``), so the
-    better of the grasp and its quarter turn counts. Residual: how far that gap falls short of
-    ``clearance`` (0 once clear). (B, 1)
+def _finger_gap(
+    fingers: list[torch.Tensor], others: Sequence[torch.Tensor], params: dict[str, Any]
+) -> torch.Tensor:
+    """How far the fingers keep from the nearest of ``others`` (pose9 footprints, half extents
+    ``params["neighbour_half_extents"]``, one each) and, given ``inner_half_extents``, from the
+    walls of the opening the poses are in (its frame). (B, 1)"""
+    half = (float(params["finger_thickness"]) / 2, float(params["finger_width"]) / 2)
+    gaps = [
+        footprint_separation(finger, other, half, other_half)
+        for finger in fingers
+        for other, other_half in zip(others, params["neighbour_half_extents"], strict=True)
+    ]
+    inner = params.get("inner_half_extents")
+    if inner is not None:
+        walls = torch.tensor(list(inner[:2]), dtype=fingers[0].dtype)
+        for finger in fingers:
+            pose = _pose_of(finger)
+            for sx, sy in ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)):
+                corner = pose[..., :2, 3] + sx * half[0] * pose[..., :2, 0] + sy * half[1] * pose[..., :2, 1]
+                gaps.append((walls - corner.abs()).min(dim=-1, keepdim=True).values)
+    return torch.stack(gaps, dim=0).min(dim=0).values
+
+
+def fingers_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """The fingers placing a box keep ``clearance`` from the boxes placed before it on the same
+    target and from its walls: inputs (this box's place action, its grasp action, then each
+    neighbour's place action), poses in the target's frame and the grasp in the box's frame.
+    The executor may turn the hand a quarter about the box (a block is the same block turned;
+    ``hands_clear_first``), so the better of the grasp and its quarter turn counts, the same
+    turn for every neighbour. Residual: how far that gap falls short of ``clearance`` (0 once
+    clear). (B, 1)
 
     Without it the planner kept blocks 9 mm apart while the fingers, 2.5 cm beyond the faces,
     came down on the neighbour: such placements slid 3-4 times as often as clear ones
     (Constrained Packing T1 and T3, scripts/packing_fingers.py)."""
-    neighbour, placed, grasp = nodes
+    placed, grasp, *others = nodes
     box_from_placed = _pose_of(placed)
     grasp_pose = _pose_of(grasp)
     quarter = torch.tensor(
@@ -348,7 +366,7 @@ def fingers_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torc
         dtype=grasp.dtype,
     )
     gaps = [
-        _finger_gap(placed, box_from_placed @ turn @ grasp_pose, neighbour, params)
+        _finger_gap(_fingers(placed, box_from_placed @ turn @ grasp_pose, params), others, params)
         for turn in (torch.eye(4, dtype=grasp.dtype), quarter)
     ]
     return torch.relu(float(params["clearance"]) - torch.maximum(*gaps))
@@ -388,7 +406,7 @@ RESIDUALS: dict[str, Residual] = {
     "palm_clear": palm_clear,
     "stroke": stroke,
     "apart": apart,
-    "fingers_apart": fingers_apart,
+    "fingers_clear": fingers_clear,
     "placed_inside": placed_inside,
     "placed_reach": placed_reach,
     "released_clear": released_clear,

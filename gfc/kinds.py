@@ -34,6 +34,11 @@ IDENTITY_FRAME = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 # could not reach in the benchmark's hand-overs were at 0.84-1.2 m.
 PANDA_SHOULDER_Z = 0.333
 PANDA_REACH = 0.85
+# The Panda finger's collision hull, closed on a face: it reaches FINGER_THICKNESS beyond the face
+# at the height of a neighbour of the same size (16 mm into a block 9 mm away on the screen's
+# mirror, tests/sim/test_screen.py) and is FINGER_WIDTH across.
+FINGER_THICKNESS = 0.025  # m
+FINGER_WIDTH = 0.029  # m
 
 # The hook's working faces (gfc/sim/bodies.py ``_hook`` builds them), in the hook's frame: its
 # tip bar spans x within HOOK_TIP_BAR_HALF_X of the ``tip`` frame and y over HOOK_TIP_BAR_Y; the

@@ -522,7 +522,7 @@ def test_apart_needs_two_objects_and_reads_their_footprints() -> None:
 
 def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
     """Objects placed on one target and left there: each later place action keeps clear of
-    theirs, and so do the fingers placing it (``fingers_apart``, with its grasp), and a block
+    theirs, and so do the fingers placing it, of theirs and of the walls (``fingers_clear``, with its grasp), and a block
     placed into a box is released inside its walls (factors on the place actions, poses in the
     target's frame). A hammer, too long to fit the box at any yaw,
     gets no ``placed_inside``; an object picked up again stops counting."""
@@ -533,8 +533,8 @@ def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
     expected = []
     for k, (pick, place) in enumerate(zip(picks, places, strict=True)):
         expected += [("placed_inside", (place,)), ("placed_reach", (place,))]
-        for earlier in places[:k]:
-            expected += [("apart", (earlier, place)), ("fingers_apart", (earlier, place, pick))]
+        expected += [("apart", (earlier, place)) for earlier in places[:k]]
+        expected += [("fingers_clear", (place, pick, *places[:k]))]
     assert implied == expected
     assert not [
         f for f in compile_plan(sample_task("hammer_place", 0).plan).spatial if f.type == "placed_inside"

@@ -19,6 +19,8 @@ from pydantic import ValidationError
 
 from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_quat
 from gfc.kinds import (
+    FINGER_THICKNESS,
+    FINGER_WIDTH,
     HOME_EE_POSE_IN_BASE,
     HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
@@ -132,12 +134,9 @@ REACH_TOLERANCE = 0.02  # m beyond PANDA_REACH at which the reach factor's energ
 # 5.9 mm (scripts/placement_gaps.py; ADR 0010).
 APART_TOLERANCE = 0.002  # m
 PLACED_CLEARANCE = 0.009  # m
-# The fingers placing a block (``fingers_apart``): the Panda finger's collision hull reaches
-# FINGER_THICKNESS beyond the face it closes on at a neighbour's height (16 mm into a block 9 mm
-# away, tests/sim/test_screen.py) and is FINGER_WIDTH across; the release opens each finger
-# 6 mm more (gfc.sim.skills.placing.RELEASE_TRAVEL), and FINGER_CLEARANCE leaves 2 mm beyond that.
-FINGER_THICKNESS = 0.025  # m
-FINGER_WIDTH = 0.029  # m
+# The fingers placing a block (``fingers_clear``; their size: gfc.kinds.FINGER_THICKNESS): the
+# release opens each finger 6 mm more (gfc.sim.skills.placing.RELEASE_TRAVEL), and
+# FINGER_CLEARANCE leaves 2 mm beyond that.
 FINGER_CLEARANCE = 0.008  # m
 # By a target without an opening (the rack): unchanged since session 12, measured at 100 trials.
 RELEASED_CLEAR_TOLERANCE = 0.005  # m
@@ -691,17 +690,19 @@ class _Compiler:
             }
             actions = (other_action, action)
             self.spatial.append(SpatialFactor("apart", "implied", len(self.spatial), (), params, actions))
-            self.add_fingers_apart(step, other, other_action, action)
+        self.add_fingers_clear(step, self.resting.get(step.target, []), action)
         self.resting.setdefault(step.target, []).append((step.object, action))
 
-    def add_fingers_apart(self, step: Step, other: str, other_action: int, action: int) -> None:
-        """The fingers placing a block keep clear of a block placed before it on the same target
-        (``fingers_apart`` on the two place actions and the grasp). Blocks and cubes only: the
-        fingers close on their faces, and a quarter turn of the hand is the same grasp."""
-        assert step.object is not None
+    def add_fingers_clear(self, step: Step, resting: list[tuple[str, int]], action: int) -> None:
+        """The fingers placing a block keep clear of the blocks placed before it on the same
+        target and of its walls (``fingers_clear`` on the place action, the grasp and the
+        neighbours' place actions). Blocks and cubes only: the fingers close on their faces, and
+        a quarter turn of the hand is the same grasp."""
+        assert step.object is not None and step.target is not None
         grasp = self.grasp_action.get(step.robot)
         kind = OBJECT_KINDS[self.objects[step.object].kind]
-        if grasp is None or not kind.quarter_turn_symmetric:
+        inner = OBJECT_KINDS[self.objects[step.target].kind].inner_half_extents
+        if grasp is None or not kind.quarter_turn_symmetric or (not resting and inner is None):
             return
         params = {
             "weight": 1.0,
@@ -710,10 +711,13 @@ class _Compiler:
             "finger_thickness": FINGER_THICKNESS,
             "finger_width": FINGER_WIDTH,
             "object_half_extents": list(kind.half_extents),
-            "target_half_extents": list(OBJECT_KINDS[self.objects[other].kind].half_extents),
+            "neighbour_half_extents": [
+                list(OBJECT_KINDS[self.objects[o].kind].half_extents) for o, _ in resting
+            ],
+            "inner_half_extents": None if inner is None else list(inner),
         }
-        actions = (other_action, action, grasp)
-        self.spatial.append(SpatialFactor("fingers_apart", "implied", len(self.spatial), (), params, actions))
+        actions = (action, grasp, *(a for _, a in resting))
+        self.spatial.append(SpatialFactor("fingers_clear", "implied", len(self.spatial), (), params, actions))
 
     def fits_inside(self, obj: str, container: str) -> bool:
         """Whether ``obj`` fits ``container``'s opening at any yaw (its footprint's diagonal)."""

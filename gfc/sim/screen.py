@@ -34,9 +34,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pybullet as pb
+import torch
 
-from gfc.geometry import FloatArray, invert, pose9_to_matrix
-from gfc.kinds import STROKE_SIGNS, ObjectKind, object_kind
+from gfc.constraints import fingers_clear
+from gfc.geometry import FloatArray, invert, matrix_to_pose9, pose9_to_matrix
+from gfc.kinds import FINGER_THICKNESS, FINGER_WIDTH, STROKE_SIGNS, ObjectKind, object_kind
 from gfc.plan.schema import Aligned, Inside, PlanRequest, SpatialFactorSpec, Step
 from gfc.sim.collision import (
     FINGER_LANDING,
@@ -88,7 +90,8 @@ OPENING_STEPS = 80  # finger positions tried when reading the opening on a held 
 # 4a574e9 were plans the walk put 3.9 cm from the rack's centre (4 allowed) that the simulator
 # left at 4.0-5.6 (session 24, scripts/replay_top1.py --strokes).
 GOAL_MARGIN = 0.005  # m
-# m: closed fingers at a placement this deep into a neighbour make the candidate marginal.
+# m: closed fingers at a placement this deep into a neighbour or a wall (the planner's finger
+# model, the better quarter turn of the hand) make the candidate marginal.
 FINGER_NEIGHBOUR_DEPTH = 0.003
 MARGINAL_KEEP = 2  # screening also stops once keep * this many candidates have passed at all
 
@@ -313,33 +316,55 @@ class Screen:
         state.poses[obj] = goal
         self._reach(state, i, step.robot, hand, f"the placement on {target}", collide=False)
         self._rests_free(state, i, obj)
-        self._fingers_clear(state, i, step.robot, obj)
+        self._fingers_clear(state, i, step.robot, obj, target)
         del state.held[step.robot]
 
-    def _fingers_clear(self, state: _State, i: int, robot: str, obj: str) -> None:
-        """Notes a doubt when the fingers, closed on ``obj`` at its placement, reach more than
-        ``FINGER_NEIGHBOUR_DEPTH`` into another movable object: the descent lands a finger on
-        it. Not a refusal (a finger that meets a neighbour's side mostly slides down it): of
-        GFC's Constrained Packing T1 placements at 100 trials, those with the fingers 6 mm or
-        more into a neighbour slid at 7 %, those clear of every one at 2 %
+    def _fingers_clear(self, state: _State, i: int, robot: str, obj: str, target: str) -> None:
+        """Notes a doubt when the fingers closed on ``obj`` at its placement would reach more
+        than ``FINGER_NEIGHBOUR_DEPTH`` into another movable object or the target's walls,
+        whichever quarter turn of the hand the executor takes: the planner's ``fingers_clear``
+        model (gfc/constraints.py) on the walked poses. The descent then lands a finger on the
+        neighbour. Not a refusal (a finger that meets a neighbour's side mostly slides down it):
+        of GFC's Constrained Packing T1 placements at 100 trials, those with the commanded
+        hand's fingers 6 mm or more into a neighbour slid at 7 %, those clear of every one at 2 %
         (scripts/packing_fingers.py)."""
         mirror = self.world.mirror
-        self._pose_objects(state)
-        self._closed_opening(state, robot, obj)  # leaves the fingers closed on obj
-        body = mirror.robots[robot].body
-        for name, other in mirror.objects.items():
-            if name == obj or other.fixed:
-                continue
-            points = [
-                p
-                for finger in FINGER_JOINTS
-                for p in pb.getClosestPoints(
-                    body, other.body, 0.0, linkIndexA=finger, physicsClientId=mirror.client
-                )
-            ]
-            depth = -min((p[8] for p in points), default=0.0)
-            if depth > FINGER_NEIGHBOUR_DEPTH:
-                state.doubts.append(f"step {i}: the fingers on {obj} reach {depth * 1000:.0f} mm into {name}")
+        kind = object_kind(mirror.objects[obj].kind)
+        if not kind.quarter_turn_symmetric:
+            return
+        held = {o for o, _ in state.held.values()}
+        others = [
+            n for n, o in mirror.objects.items() if n != obj and n != target and not o.fixed and n not in held
+        ]
+        target_kind = self._kind(target)
+        inner = None if target_kind is None else target_kind.inner_half_extents
+        if not others and inner is None:
+            return
+        target_from_world = invert(state.poses[target])
+
+        def pose9(matrix: FloatArray) -> torch.Tensor:
+            return torch.tensor(matrix_to_pose9(matrix), dtype=torch.float64).unsqueeze(0)
+
+        nodes = [
+            pose9(target_from_world @ state.poses[obj]),
+            pose9(invert(state.held[robot][1])),  # the grasp in the object's frame
+            *(pose9(target_from_world @ state.poses[n]) for n in others),
+        ]
+        params = {
+            "clearance": 0.0,
+            "finger_thickness": FINGER_THICKNESS,
+            "finger_width": FINGER_WIDTH,
+            "object_half_extents": list(kind.half_extents),
+            "neighbour_half_extents": [
+                list(object_kind(mirror.objects[n].kind).half_extents) for n in others
+            ],
+            "inner_half_extents": None if inner is None else list(inner),
+        }
+        depth = float(fingers_clear(nodes, params))
+        if depth > FINGER_NEIGHBOUR_DEPTH:
+            state.doubts.append(
+                f"step {i}: the fingers on {obj} would reach {depth * 1000:.0f} mm into a neighbour or a wall"
+            )
 
     def _rests_free(self, state: _State, i: int, obj: str) -> None:
         """A placed object must not overlap anything where it is released (a block placed into

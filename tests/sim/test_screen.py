@@ -213,31 +213,39 @@ def test_a_push_that_leaves_the_block_just_inside_the_goal_passes_as_marginal() 
 
 
 @pytest.mark.parametrize(
-    ("grasp_turn", "gap", "doubt"), [(0, 0.009, False), (90, 0.04, False), (90, 0.009, True)]
+    ("grasp_turn", "gap", "doubt"),
+    [(0, 0.009, False), (90, 0.009, False), (45, 0.009, True), (45, 0.04, False)],
 )
-def test_fingers_closing_towards_a_neighbour_9mm_away_make_a_placement_marginal(
+def test_fingers_that_no_turn_of_the_hand_keeps_off_a_neighbour_make_a_placement_marginal(
     grasp_turn: float, gap: float, doubt: bool
 ) -> None:
-    """Packing T1's second block placed ``gap`` beside the first along the box's y: fingers that
-    close along x pass by the neighbour; turned a quarter (closing along y) they reach some
-    16 mm into it at 9 mm, and the candidate passes as marginal; 4 cm leaves room for them."""
+    """Packing T1's second block placed ``gap`` beside the first along the box's x. Fingers that
+    close along y pass by the neighbour; closing along x they would reach 16 mm into it, but the
+    executor turns the hand a quarter (a block is the same block turned), so neither is in doubt.
+    A grasp 45 degrees off the faces closes on the corners whichever the turn: at 9 mm the
+    fingers reach into the neighbour and the candidate passes as marginal; 4 cm leaves room."""
     task = "constrained_packing_t1"
     actions = _reference(task, 0)
-    first, pick, second = actions[1], actions[2], actions[3]
-    assert first is not None and pick is not None and second is not None
+    pick = actions[2]
+    assert pick is not None
     turn = np.eye(4)
     c, s = math.cos(math.radians(grasp_turn)), math.sin(math.radians(grasp_turn))
     turn[:2, :2] = [[c, -s], [s, c]]
     actions[2] = matrix_to_pose9(turn @ pose9_to_matrix(pick))
-    placed = second.copy()
-    placed[0], placed[1] = first[0], first[1] + 0.05 + gap
-    actions[3] = placed
+    # Both in the box's middle row, away from its walls: the first at x = -6 cm; the other two
+    # blocks at the far end.
+    for step, (x, y) in zip(
+        (1, 3, 5, 7), ((-0.06, 0.0), (-0.01 + gap, 0.0), (0.105, -0.055), (0.105, 0.055)), strict=True
+    ):
+        action = actions[step]
+        assert action is not None
+        action = action.copy()
+        action[0], action[1] = x, y
+        actions[step] = action
     with Screen(sample_task(task, 0).plan) as screen:
         verdict = screen.check(actions)
-    assert verdict.feasible
-    assert verdict.marginal == doubt, verdict
-    if doubt:
-        assert "step 3: the fingers on block_1 reach" in verdict.reason and "into block_0" in verdict.reason
+    assert verdict.feasible, verdict
+    assert ("step 3: the fingers on block_1 would reach" in verdict.reason) == doubt, verdict
 
 
 def test_screen_order_puts_marginal_passes_after_clear_ones() -> None:

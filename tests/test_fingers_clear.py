@@ -1,6 +1,6 @@
-"""The ``fingers_apart`` factor: the fingers placing a block keep clear of a neighbour placed
-before it. Analytic cases (the numbers the screen's mirror gives for the same scene:
-tests/sim/test_screen.py) and invariances."""
+"""The ``fingers_clear`` factor: the fingers placing a block keep clear of the neighbours placed
+before it and of the walls. Analytic cases (the 16 mm the screen's mirror measured on the Panda's
+fingers for the same scene) and invariances."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gfc.constraints import _finger_gap, _pose_of, fingers_apart
-from gfc.plan.compiler import FINGER_CLEARANCE, FINGER_THICKNESS, FINGER_WIDTH
+from gfc.constraints import _finger_gap, _fingers, _pose_of, fingers_clear
+from gfc.kinds import FINGER_THICKNESS, FINGER_WIDTH
+from gfc.plan.compiler import FINGER_CLEARANCE
 
 HALF = 0.025  # a 5 cm block
 PARAMS = {
@@ -21,7 +22,8 @@ PARAMS = {
     "finger_thickness": FINGER_THICKNESS,
     "finger_width": FINGER_WIDTH,
     "object_half_extents": [HALF] * 3,
-    "target_half_extents": [HALF] * 3,
+    "neighbour_half_extents": [[HALF] * 3],
+    "inner_half_extents": None,
 }
 
 
@@ -40,7 +42,7 @@ def _approx(value: float) -> object:
 def _gap(grasp_yaw: float, neighbour: torch.Tensor) -> float:
     placed = _pose9(0.0, 0.0, 0.0)
     hand = _pose_of(placed) @ _pose_of(_pose9(0.0, 0.0, grasp_yaw, z=0.031, down=True))
-    return float(_finger_gap(placed, hand, neighbour, PARAMS))
+    return float(_finger_gap(_fingers(placed, hand, PARAMS), [neighbour], PARAMS))
 
 
 def test_fingers_closing_towards_a_neighbour_9mm_away_reach_16mm_into_it() -> None:
@@ -54,7 +56,7 @@ def test_fingers_closing_towards_a_neighbour_9mm_away_reach_16mm_into_it() -> No
     assert _gap(0.0, beyond_x) == _approx(HALF + 0.009 - FINGER_WIDTH / 2)
     # The factor: a quarter turn of the hand closes along x, clear of the neighbour along y.
     grasp = _pose9(0.0, 0.0, 0.0, z=0.031, down=True)
-    assert float(fingers_apart([beyond_y, _pose9(0.0, 0.0, 0.0), grasp], PARAMS)) == 0.0
+    assert float(fingers_clear([_pose9(0.0, 0.0, 0.0), grasp, beyond_y], PARAMS)) == 0.0
 
 
 def test_a_grasp_45_degrees_off_the_faces_leaves_no_turn_clear() -> None:
@@ -70,12 +72,8 @@ def test_a_grasp_45_degrees_off_the_faces_leaves_no_turn_clear() -> None:
     # On v the finger's radius is half its width, the neighbour's HALF * (|v_x| + |v_y|).
     along_v = abs(float((neighbour_xy - finger) @ v)) - FINGER_WIDTH / 2 - HALF * 2 * root
     grasp = _pose9(0.0, 0.0, 45.0, z=0.031, down=True)
-    residual = float(
-        fingers_apart(
-            [_pose9(float(neighbour_xy[0]), float(neighbour_xy[1]), 0.0), _pose9(0.0, 0.0, 0.0), grasp],
-            PARAMS,
-        )
-    )
+    neighbour = _pose9(float(neighbour_xy[0]), float(neighbour_xy[1]), 0.0)
+    residual = float(fingers_clear([_pose9(0.0, 0.0, 0.0), grasp, neighbour], PARAMS))
     assert residual == _approx(FINGER_CLEARANCE - along_v)
     assert residual > FINGER_CLEARANCE  # the fingers overlap it
 
@@ -101,8 +99,25 @@ def test_the_factor_turns_with_the_scene_and_ignores_a_half_turn_of_the_hand(
         placed = _pose9(c * x - s * y, s * x + c * y, yaw + turn)
         neighbour = _pose9(c * nx - s * ny, s * nx + c * ny, 30.0 + turn)
         grasp = _pose9(0.003, -0.002, hand_yaw, z=0.031, down=True)
-        return float(fingers_apart([neighbour, placed, grasp], PARAMS))
+        return float(fingers_clear([placed, grasp, neighbour], PARAMS))
 
     base = residual(0.0, grasp_yaw)
     assert residual(scene_turn, grasp_yaw) == _approx(base)
     assert residual(0.0, grasp_yaw + 180.0) == _approx(base)
+
+
+def test_the_walls_count_and_one_turn_must_clear_every_neighbour_and_wall() -> None:
+    """A block 2 cm from a wall along y and a neighbour 9 mm beyond it along x: the hand closing
+    along y puts a finger 5 mm into the wall, the one closing along x a finger 16 mm into the
+    neighbour; no turn is clear, and the residual is the better turn's shortfall (the wall's)."""
+    inner = [0.14, 0.09, 0.04]
+    params = {**PARAMS, "inner_half_extents": inner}
+    y = inner[1] - HALF - 0.02  # the block's face 2 cm from the +y wall
+    placed = _pose9(0.0, y, 0.0)
+    neighbour = _pose9(2 * HALF + 0.009, y, 0.0)
+    grasp = _pose9(0.0, 0.0, 0.0, z=0.031, down=True)
+    into_wall = FINGER_THICKNESS - 0.02
+    assert float(fingers_clear([placed, grasp, neighbour], params)) == _approx(FINGER_CLEARANCE + into_wall)
+    # Without the neighbour the hand closes along x, clear of the walls by 14 - 2.5 - 2.5 cm.
+    alone = {**params, "neighbour_half_extents": []}
+    assert float(fingers_clear([placed, grasp], alone)) == 0.0

@@ -57,9 +57,11 @@ def trial_to_json(trial: Trial) -> dict[str, Any]:
         },
         "any_success": result.any_success,
         "tried": result.tried,
-        # Six decimals (a micrometre, a microradian) keep the log small; a key-frame replay says
-        # whether it reproduced the recorded outcome.
-        "top1_actions": [None if a is None else [round(v, 6) for v in a] for a in trial.top1_actions],
+        # Full precision: a replay must execute the very actions. Rounded to six decimals (a
+        # micrometre, a microradian; logs before session 24), a Packing T1 plan whose block the
+        # retreat lifted 7.6 cm in the bench was placed cleanly when replayed from the log, and
+        # the bench run again on that seed failed as logged.
+        "top1_actions": [None if a is None else [float(v) for v in a] for a in trial.top1_actions],
         "passed_screen": trial.passed_screen,
     }
 

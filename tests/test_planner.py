@@ -141,8 +141,8 @@ def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan
     assert set(first["nodes"]) == {n.label for n in plan.free}
     # The plan's aligned and far, and the compiler's reach, hand-over clearance and the physics of
     # placements (the cube released inside the spare box, every release within reach; the lid,
-    # too big for that box, rests on its rim, so no apart between the two); kinematic links are
-    # off by default.
+    # too big for that box, rests on its rim, so no apart between the two; the fingers placing
+    # the cube clear of the box's walls); kinematic links are off by default.
     assert {r["type"] for r in first["residuals"]} == {
         "aligned",
         "far",
@@ -150,6 +150,7 @@ def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan
         "grasps_apart",
         "placed_inside",
         "placed_reach",
+        "fingers_clear",
     }
     again = plan_candidates(plan, library, options)  # type: ignore[arg-type]
     assert again.candidates[0]["steps"] == first["steps"]  # same seed, same plan

@@ -328,21 +328,40 @@ def _finger_gap(
 ) -> torch.Tensor:
     """How far the fingers keep from the nearest of ``others`` (pose9 footprints, half extents
     ``params["neighbour_half_extents"]``, one each) and, given ``inner_half_extents``, from the
-    walls of the opening the poses are in (its frame). (B, 1)"""
+    walls of the opening the poses are in (its frame). (B, 1)
+
+    Every finger-neighbour pair goes through one separation call (the guidance differentiates
+    this at every denoising step: pair by pair, it made packing plans 2.5 times slower)."""
     half = (float(params["finger_thickness"]) / 2, float(params["finger_width"]) / 2)
-    gaps = [
-        footprint_separation(finger, other, half, other_half)
-        for finger in fingers
-        for other, other_half in zip(others, params["neighbour_half_extents"], strict=True)
-    ]
+    finger = torch.stack(fingers, dim=0)  # (F, B, 9)
+    count, batch = finger.shape[0], finger.shape[1]
+    gaps: list[torch.Tensor] = []  # each (B, 1)
+    halves = [tuple(h[:2]) for h in params["neighbour_half_extents"]]
+    for extent in dict.fromkeys(halves):  # neighbours of one size at a time (usually all)
+        group = torch.stack(
+            [o for o, h in zip(others, halves, strict=True) if h == extent], dim=0
+        )  # (K, B, 9)
+        pairs = (count, group.shape[0], batch, 9)
+        separation = footprint_separation(
+            finger.unsqueeze(1).expand(pairs).reshape(-1, 9),
+            group.unsqueeze(0).expand(pairs).reshape(-1, 9),
+            half,
+            extent,
+        )  # (F * K * B, 1)
+        gaps.append(separation.reshape(-1, batch, 1).min(dim=0).values)
     inner = params.get("inner_half_extents")
     if inner is not None:
-        walls = torch.tensor(list(inner[:2]), dtype=fingers[0].dtype)
-        for finger in fingers:
-            pose = _pose_of(finger)
-            for sx, sy in ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)):
-                corner = pose[..., :2, 3] + sx * half[0] * pose[..., :2, 0] + sy * half[1] * pose[..., :2, 1]
-                gaps.append((walls - corner.abs()).min(dim=-1, keepdim=True).values)
+        walls = torch.tensor(list(inner[:2]), dtype=finger.dtype)
+        pose = _pose_of(finger.reshape(-1, 9))  # (F * B, 4, 4)
+        signs = torch.tensor([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]], dtype=finger.dtype)
+        # corners: (4, F * B, 2) = centre + sx * hx * x-axis + sy * hy * y-axis
+        corners = (
+            pose[..., :2, 3]
+            + (signs[:, 0:1] * half[0]).unsqueeze(-1) * pose[..., :2, 0]
+            + (signs[:, 1:2] * half[1]).unsqueeze(-1) * pose[..., :2, 1]
+        )
+        to_wall = (walls - corners.abs()).min(dim=-1).values  # (4, F * B)
+        gaps.append(to_wall.reshape(4 * count, batch).min(dim=0).values.unsqueeze(-1))
     return torch.stack(gaps, dim=0).min(dim=0).values
 
 

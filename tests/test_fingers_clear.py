@@ -121,3 +121,58 @@ def test_the_walls_count_and_one_turn_must_clear_every_neighbour_and_wall() -> N
     # Without the neighbour the hand closes along x, clear of the walls by 14 - 2.5 - 2.5 cm.
     alone = {**params, "neighbour_half_extents": []}
     assert float(fingers_clear([placed, grasp], alone)) == 0.0
+
+
+def _gap_pair_by_pair(
+    fingers: list[torch.Tensor], others: list[torch.Tensor], params: dict[str, object]
+) -> torch.Tensor:
+    """The finger gap one finger, neighbour and corner at a time (what ``_finger_gap`` batches)."""
+    from gfc.constraints import footprint_separation
+
+    half = (FINGER_THICKNESS / 2, FINGER_WIDTH / 2)
+    halves = params["neighbour_half_extents"]
+    assert isinstance(halves, list)
+    gaps = [footprint_separation(f, o, half, h) for f in fingers for o, h in zip(others, halves, strict=True)]
+    inner = params["inner_half_extents"]
+    assert isinstance(inner, list)
+    walls = torch.tensor(inner[:2], dtype=torch.float64)
+    for f in fingers:
+        pose = _pose_of(f)
+        for sx in (1.0, -1.0):
+            for sy in (1.0, -1.0):
+                corner = pose[..., :2, 3] + sx * half[0] * pose[..., :2, 0] + sy * half[1] * pose[..., :2, 1]
+                gaps.append((walls - corner.abs()).min(dim=-1, keepdim=True).values)
+    return torch.stack(gaps).min(dim=0).values
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    poses=st.lists(
+        st.tuples(st.floats(-0.12, 0.12), st.floats(-0.08, 0.08), st.floats(-180.0, 180.0)),
+        min_size=2,
+        max_size=5,
+    ),
+    grasp_yaw=st.floats(-180.0, 180.0),
+)
+def test_the_batched_gap_equals_the_gap_taken_pair_by_pair(
+    poses: list[tuple[float, float, float]], grasp_yaw: float
+) -> None:
+    """Neighbours of two sizes (blocks and 4 cm cubes) and the box's walls; a batch of three
+    scenes (the neighbours shifted and the grasp turned row by row)."""
+
+    def rows(x: float, y: float, yaw: float, step: float) -> torch.Tensor:
+        return torch.cat([_pose9(x + k * step, y - k * step, yaw + 25.0 * k) for k in range(3)])
+
+    placed = rows(*poses[0], 0.0)
+    others = [rows(*p, 0.01) for p in poses[1:]]
+    params = {
+        **PARAMS,
+        "neighbour_half_extents": [[HALF] * 3 if k % 2 else [0.02] * 3 for k in range(len(others))],
+        "inner_half_extents": [0.14, 0.09, 0.04],
+    }
+    grasps = torch.cat([_pose9(0.002, -0.001, grasp_yaw + 40.0 * k, z=0.031, down=True) for k in range(3)])
+    hand = _pose_of(placed) @ _pose_of(grasps)
+    fingers = _fingers(placed, hand, params)
+    batched = _finger_gap(fingers, others, params)
+    assert batched.shape == (3, 1)
+    assert torch.allclose(batched, _gap_pair_by_pair(fingers, others, params), atol=1e-12)

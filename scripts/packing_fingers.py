@@ -13,13 +13,11 @@ this: the fingers are allowed to touch at a placement (the descent may touch).
 
 from __future__ import annotations
 
-import argparse
-import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pybullet as pb
+from replay_top1 import actions_of, log_parser, trials  # scripts/, beside this one
 
 from gfc.geometry import FloatArray
 from gfc.plan.schema import Step
@@ -71,11 +69,8 @@ class FingerScreen(Screen):
 
 def placements(log: Path, task: str, method: str) -> list[dict[str, Any]]:
     out = []
-    for line in log.read_text().splitlines():
-        row = json.loads(line)
-        if row.get("task") != task or row.get("method") != method:
-            continue
-        actions = [None if a is None else np.asarray(a, dtype=np.float64) for a in row["top1_actions"]]
+    for row in trials(log, task, method, None):
+        actions = actions_of(row)
         screen = FingerScreen(sample_task(task, row["seed"]).plan, row["seed"])
         try:
             screen.check(actions)
@@ -92,13 +87,7 @@ def placements(log: Path, task: str, method: str) -> list[dict[str, Any]]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument("log", type=Path, help="a trial log (gfc bench tasks --log)")
-    parser.add_argument("--task", required=True)
-    parser.add_argument("--method", default="gfc")
-    args = parser.parse_args()
+    args = log_parser(__doc__).parse_args()
     rows = placements(args.log, args.task, args.method)
     print(f"{args.task}, {args.method}: {len(rows)} placements reached by the top-1 executions")
     print("| closed fingers at the placement | placements | slid there | rate |")

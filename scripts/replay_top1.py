@@ -149,13 +149,18 @@ def strokes(rows: list[dict[str, Any]], task: str) -> None:
         )
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+def log_parser(doc: str | None) -> argparse.ArgumentParser:
+    """A command line that reads one task and method of a trial log (the scripts that study
+    logged plans share it)."""
+    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("log", type=Path, help="a trial log (gfc bench tasks --log)")
     parser.add_argument("--task", required=True)
     parser.add_argument("--method", default="gfc")
+    return parser
+
+
+def main() -> None:
+    parser = log_parser(__doc__)
     parser.add_argument("--seeds", type=int, nargs="*", help="only these trials (default: all logged)")
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--screen", action="store_true", help="re-screen instead of executing")

@@ -25,6 +25,11 @@ it is taken to slide along the stroke by what is left of r once the gap is close
 session 12 screening stopped at the first stroke (where a pushed block ends up is not known
 without physics), which left the steps after it unscreened: 4 of Hook Reach T1's 6 top-1
 failures in 10 scenes were the hook's placement on the rack out of reach, right after the pull.
+
+A pass can carry a doubt (``Verdict.marginal``, session 24): an aligned goal met by less than
+``GOAL_MARGIN`` on the walked end state, or fingers that would come down on a neighbour or a wall
+at a placement (the planner's ``fingers_clear`` model). ``screen_order`` ranks such passes after
+the others; they are not refused.
 """
 
 from __future__ import annotations

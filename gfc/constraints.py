@@ -25,7 +25,7 @@ from gfc.geometry import (
     wrap_angle,
     yaw_of_transform,
 )
-from gfc.kinds import PIVOT_TRAVEL, object_kind
+from gfc.kinds import FINGER_THICKNESS, FINGER_WIDTH, PIVOT_TRAVEL, object_kind
 
 Residual = Callable[[Sequence[torch.Tensor], dict[str, Any]], torch.Tensor]
 
@@ -363,6 +363,25 @@ def _finger_gap(
         to_wall = (walls - corners.abs()).min(dim=-1).values  # (4, F * B)
         gaps.append(to_wall.reshape(4 * count, batch).min(dim=0).values.unsqueeze(-1))
     return torch.stack(gaps, dim=0).min(dim=0).values
+
+
+def fingers_clear_params(
+    held: Sequence[float],
+    neighbours: Sequence[Sequence[float]],
+    inner: Sequence[float] | None,
+    clearance: float,
+) -> dict[str, Any]:
+    """``fingers_clear``'s parameters: the placed box's half extents, each neighbour's (in the
+    order of the nodes after the grasp), the target's opening (None: no walls), the clearance;
+    the fingers' size from gfc.kinds. The compiler's factor and the screen's doubt share them."""
+    return {
+        "clearance": clearance,
+        "finger_thickness": FINGER_THICKNESS,
+        "finger_width": FINGER_WIDTH,
+        "object_half_extents": list(held),
+        "neighbour_half_extents": [list(n) for n in neighbours],
+        "inner_half_extents": None if inner is None else list(inner),
+    }
 
 
 def fingers_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:

@@ -17,10 +17,9 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
+from gfc.constraints import fingers_clear_params
 from gfc.geometry import matrix_to_pose9, pose7_to_matrix, pose7_to_pose9, yaw_quat
 from gfc.kinds import (
-    FINGER_THICKNESS,
-    FINGER_WIDTH,
     HOME_EE_POSE_IN_BASE,
     HOOK_SHAFT_Y,
     HOOK_TIP_BAR_HALF_X,
@@ -704,17 +703,11 @@ class _Compiler:
         inner = OBJECT_KINDS[self.objects[step.target].kind].inner_half_extents
         if grasp is None or not kind.quarter_turn_symmetric or (not resting and inner is None):
             return
+        neighbours = [OBJECT_KINDS[self.objects[o].kind].half_extents for o, _ in resting]
         params = {
             "weight": 1.0,
             "tolerance": APART_TOLERANCE,
-            "clearance": FINGER_CLEARANCE,
-            "finger_thickness": FINGER_THICKNESS,
-            "finger_width": FINGER_WIDTH,
-            "object_half_extents": list(kind.half_extents),
-            "neighbour_half_extents": [
-                list(OBJECT_KINDS[self.objects[o].kind].half_extents) for o, _ in resting
-            ],
-            "inner_half_extents": None if inner is None else list(inner),
+            **fingers_clear_params(kind.half_extents, neighbours, inner, FINGER_CLEARANCE),
         }
         actions = (action, grasp, *(a for _, a in resting))
         self.spatial.append(SpatialFactor("fingers_clear", "implied", len(self.spatial), (), params, actions))

@@ -41,9 +41,9 @@ import numpy as np
 import pybullet as pb
 import torch
 
-from gfc.constraints import fingers_clear
+from gfc.constraints import fingers_clear, fingers_clear_params
 from gfc.geometry import FloatArray, invert, matrix_to_pose9, pose9_to_matrix
-from gfc.kinds import FINGER_THICKNESS, FINGER_WIDTH, STROKE_SIGNS, ObjectKind, object_kind
+from gfc.kinds import STROKE_SIGNS, ObjectKind, object_kind
 from gfc.plan.schema import Aligned, Inside, PlanRequest, SpatialFactorSpec, Step
 from gfc.sim.collision import (
     FINGER_LANDING,
@@ -202,14 +202,12 @@ class Screen:
             # where the contact model slides it. Until session 12 a candidate that reached every
             # pose passed whatever its end state: 0 of 32 GFC candidates of Rearrangement Push T1
             # ended with the block under the rack.
-            missed = [line.removeprefix("FAIL ") for line in report if line.startswith("FAIL ")]
-            return Walk(Verdict(False, None, "the goal would not hold: " + "; ".join(missed)), {}, {})
+            return Walk(Verdict(False, None, "the goal would not hold: " + _failed(report)), {}, {})
         doubts = list(state.doubts)
         if complete:
             narrow, report = goal_satisfied_on(poses.__getitem__, self._kind, _with_margin(self.plan.goal))
             if not narrow:
-                missed = [line.removeprefix("FAIL ") for line in report if line.startswith("FAIL ")]
-                doubts.append(f"the goal holds by less than {GOAL_MARGIN * 100:.1f} cm: " + "; ".join(missed))
+                doubts.append(f"the goal holds by less than {GOAL_MARGIN * 100:.1f} cm: " + _failed(report))
         if doubts:
             return Walk(Verdict(True, None, "; ".join(doubts), marginal=True), poses, openings)
         return Walk(Verdict(True), poses, openings)
@@ -355,16 +353,8 @@ class Screen:
             pose9(invert(state.held[robot][1])),  # the grasp in the object's frame
             *(pose9(target_from_world @ state.poses[n]) for n in others),
         ]
-        params = {
-            "clearance": 0.0,
-            "finger_thickness": FINGER_THICKNESS,
-            "finger_width": FINGER_WIDTH,
-            "object_half_extents": list(kind.half_extents),
-            "neighbour_half_extents": [
-                list(object_kind(mirror.objects[n].kind).half_extents) for n in others
-            ],
-            "inner_half_extents": None if inner is None else list(inner),
-        }
+        neighbours = [object_kind(mirror.objects[n].kind).half_extents for n in others]
+        params = fingers_clear_params(kind.half_extents, neighbours, inner, clearance=0.0)
         depth = float(fingers_clear(nodes, params))
         if depth > FINGER_NEIGHBOUR_DEPTH:
             state.doubts.append(
@@ -711,6 +701,11 @@ def screen_order(
     passed = clear + marginal
     rest = [k for k in range(len(candidates)) if k not in passed]
     return passed + rest, verdicts
+
+
+def _failed(report: Sequence[str]) -> str:
+    """The failed lines of a ``goal_satisfied_on`` report, joined."""
+    return "; ".join(line.removeprefix("FAIL ") for line in report if line.startswith("FAIL "))
 
 
 def _with_margin(goal: Sequence[SpatialFactorSpec]) -> list[SpatialFactorSpec]:

@@ -87,7 +87,14 @@ SHOULDER_Z = 0.333
 MAX_REACH = 0.98
 REMEMBERED = 6  # recent IK solutions per arm kept as seeds for later poses
 OPEN = 0.04  # m: finger half opening while screening (open hand: the conservative case)
-PLACE_OVERLAP = 0.002  # m a released object may overlap a neighbour (contact, numerical slack)
+# m a released object may overlap a neighbour or a wall (numerical slack). It was 2 mm until
+# session 25: the descent is vertical, so a footprint that overlaps a neighbour's lands on its
+# top edge (or on a box's rim), and the block ends on it, tipped over. Per place step of the
+# logged Constrained Packing top-1 plans (sessions 16-24, GFC and linear chain, 4257 placements;
+# scripts/placement_failures.py): footprints planned 1 mm or more into a neighbour or a wall
+# failed there at 28 % (29), 0-1 mm into at 10 % (77), clear by 0-3 mm at 6 % (330), by more at
+# 3.4 %.
+PLACE_OVERLAP = 0.0005
 OPENING_STEPS = 80  # finger positions tried when reading the opening on a held object
 # A walked end state that meets an aligned goal by less than this is passed but ranked after the
 # candidates that meet it with room to spare: the contact model and the placements land within

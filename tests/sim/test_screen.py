@@ -234,18 +234,36 @@ def test_fingers_that_no_turn_of_the_hand_keeps_off_a_neighbour_make_a_placement
     actions[2] = matrix_to_pose9(turn @ pose9_to_matrix(pick))
     # Both in the box's middle row, away from its walls: the first at x = -6 cm; the other two
     # blocks at the far end.
-    for step, (x, y) in zip(
-        (1, 3, 5, 7), ((-0.06, 0.0), (-0.01 + gap, 0.0), (0.105, -0.055), (0.105, 0.055)), strict=True
-    ):
+    verdict = _packing_t1_placed(actions, ((-0.06, 0.0), (-0.01 + gap, 0.0), (0.105, -0.055), (0.105, 0.055)))
+    assert verdict.feasible, verdict
+    assert ("step 3: the fingers on block_1 would reach" in verdict.reason) == doubt, verdict
+
+
+def _packing_t1_placed(actions: list[FloatArray | None], slots: tuple[tuple[float, float], ...]) -> Verdict:
+    """Screen Packing T1 scene 0 with its four blocks placed at ``slots`` (box frame x, y)."""
+    for step, (x, y) in zip((1, 3, 5, 7), slots, strict=True):
         action = actions[step]
         assert action is not None
         action = action.copy()
         action[0], action[1] = x, y
         actions[step] = action
-    with Screen(sample_task(task, 0).plan) as screen:
-        verdict = screen.check(actions)
-    assert verdict.feasible, verdict
-    assert ("step 3: the fingers on block_1 would reach" in verdict.reason) == doubt, verdict
+    with Screen(sample_task("constrained_packing_t1", 0).plan) as screen:
+        return screen.check(actions)
+
+
+@pytest.mark.parametrize(("gap", "refused"), [(-0.001, True), (0.001, False)])
+def test_a_block_released_into_its_neighbour_is_refused(gap: float, refused: bool) -> None:
+    """The descent is vertical: a footprint 1 mm into the neighbour's comes down on its top edge
+    (placements planned that way failed at 28 %, scripts/placement_failures.py). Side by side
+    along the box's y, where the fingers (closing along the box's x) pass the neighbour by."""
+    actions = _reference("constrained_packing_t1", 0)
+    verdict = _packing_t1_placed(
+        actions, ((-0.06, -0.03), (-0.06, 0.02 + gap), (0.105, -0.055), (0.105, 0.055))
+    )
+    assert verdict.feasible != refused, verdict
+    if refused:
+        assert verdict.step == 3
+        assert "block_1 released 0.1 cm into block_0" in verdict.reason
 
 
 def test_screen_order_puts_marginal_passes_after_clear_ones() -> None:

@@ -28,8 +28,9 @@ import numpy as np
 import pybullet as pb
 
 import gfc.sim.skills.placing as placing
-from gfc.geometry import FloatArray, pose9_to_matrix
+from gfc.geometry import FloatArray, invert, pose9_to_matrix
 from gfc.sim.execute import EXECUTORS, execute_in_world
+from gfc.sim.panda import ee_matrix
 from gfc.sim.render import Camera, Rgb, render, save_strip
 from gfc.sim.world import World, build_world, object_matrix
 from gfc.tasks import sample_task
@@ -69,13 +70,19 @@ class Tracer:
         self.frames: list[tuple[str, Rgb]] = []
         self.placing: str | None = None
         self.goal: FloatArray | None = None
+        self.robot = "right"
         self.lines: list[str] = []
 
     def snap(self, label: str) -> None:
         obj = self.placing
         if obj is None:
             return
-        text = f"{label}: {describe(self.world, obj, self.goal)}; " + "; ".join(contacts(self.world, obj))
+        hand = ee_matrix(self.world.client, self.world.physics.robots[self.robot])
+        in_hand = (invert(hand) @ object_matrix(self.world.physics, obj))[:3, 3] * 100
+        text = (
+            f"{label}: {describe(self.world, obj, self.goal)}, in the hand at {np.round(in_hand, 1).tolist()} cm; "
+            + "; ".join(contacts(self.world, obj))
+        )
         self.lines.append(text)
         self.frames.append((f"{obj} {label}", render(self.world, self.camera)))
 
@@ -136,6 +143,7 @@ def main() -> None:
 
         def place(ctx: Any, step: Any, action: FloatArray) -> str:
             tracer.placing = step.object
+            tracer.robot = step.robot
             tracer.goal = object_matrix(world.physics, step.target) @ pose9_to_matrix(action)
             tracer.lines.append(f"--- place {step.object}")
             try:

@@ -36,6 +36,7 @@ def main() -> None:
     parser.add_argument("--task", required=True, help="a task whose place steps share one target")
     parser.add_argument("--seeds", nargs=2, type=int, default=(0, 10), metavar=("FIRST", "END"))
     parser.add_argument("--candidates", type=int, default=32)
+    parser.add_argument("--method", default="gfc", help="gfc or linear_chain (default gfc)")
     parser.add_argument("--tolerance", type=float, help="m, instead of APART_TOLERANCE")
     parser.add_argument("--clearance", type=float, help="m, instead of PLACED_CLEARANCE")
     args = parser.parse_args()
@@ -43,7 +44,7 @@ def main() -> None:
         compiler.APART_TOLERANCE = args.tolerance
     if args.clearance is not None:
         compiler.PLACED_CLEARANCE = args.clearance
-    method = make_method("gfc", StoreLibrary(SkillStore(args.skills)))
+    method = make_method(args.method, StoreLibrary(SkillStore(args.skills)))
     closest: list[float] = []
     for seed in range(*args.seeds):
         instance = sample_task(args.task, seed)
@@ -66,13 +67,16 @@ def main() -> None:
             )
         closest.append(gaps[0])
         kept = sum(g >= KEEP for g in gaps)
+        rank = sorted(gaps, reverse=True).index(gaps[0]) + 1
         print(
-            f"seed {seed}: top-1 closest pair {gaps[0] * 1000:.1f} mm; {kept}/{len(gaps)} candidates keep 4 mm"
+            f"seed {seed}: top-1 closest pair {gaps[0] * 1000:.1f} mm "
+            f"(candidates' median {statistics.median(gaps) * 1000:.1f} mm, top-1 is {rank} by room); "
+            f"{kept}/{len(gaps)} candidates keep 4 mm"
         )
     print(
         f"median top-1 closest pair {statistics.median(closest) * 1000:.1f} mm; "
         f"{sum(g >= KEEP for g in closest)}/{len(closest)} top-1 plans keep 4 mm "
-        f"(APART_TOLERANCE {compiler.APART_TOLERANCE}, PLACED_CLEARANCE {compiler.PLACED_CLEARANCE})"
+        f"({args.method}; APART_TOLERANCE {compiler.APART_TOLERANCE}, PLACED_CLEARANCE {compiler.PLACED_CLEARANCE})"
     )
 
 

@@ -36,19 +36,21 @@ from gfc.sim.world import World, build_world, object_matrix
 from gfc.tasks import sample_task
 
 
-def contacts(world: World, name: str) -> list[str]:
-    """Contacts of ``name`` with every other body: partner, normal force and normal."""
+def contacts(world: World, name: str, skip: str | None = None) -> list[str]:
+    """Contacts of ``name`` (an object or a robot) with every other body but ``skip``: its link,
+    the partner, normal force and normal."""
     bodies = world.physics
     names = {o.body: n for n, o in bodies.objects.items()}
     names.update({r.body: n for n, r in bodies.robots.items()})
     names[bodies.table] = "table"
-    body = bodies.objects[name].body
+    body = bodies.objects[name].body if name in bodies.objects else bodies.robots[name].body
     out = []
     for c in pb.getContactPoints(bodyA=body, physicsClientId=world.client):
         other = names.get(c[2], f"body{c[2]}")
-        if c[9] > 0.5:
+        if c[9] > 0.5 and other != skip:
             n = np.round(np.asarray(c[7]), 2).tolist()
-            out.append(f"{other}/link{c[4]} {c[9]:.0f} N n={n} d={c[8] * 1000:.1f} mm")
+            mine = f"link{c[3]} on " if name in bodies.robots else ""
+            out.append(f"{mine}{other}/link{c[4]} {c[9]:.0f} N n={n} d={c[8] * 1000:.1f} mm")
     return out
 
 
@@ -83,6 +85,9 @@ class Tracer:
             f"{label}: {describe(self.world, obj, self.goal)}, in the hand at {np.round(in_hand, 1).tolist()} cm; "
             + "; ".join(contacts(self.world, obj))
         )
+        arm = contacts(self.world, self.robot, skip=obj)
+        if arm:
+            text += f"; the {self.robot} arm touches: " + "; ".join(arm)
         self.lines.append(text)
         self.frames.append((f"{obj} {label}", render(self.world, self.camera)))
 

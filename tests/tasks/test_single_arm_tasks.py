@@ -122,6 +122,8 @@ def test_packing_keeps_every_pair_apart_and_inside(task: str) -> None:
     half = object_kind("block").half_extents[0]
     for slot in slots:
         assert np.all(np.abs(slot) + half <= np.asarray(inner[:2]))
+    # Sampled with the Langevin corrector: without it the layouts overlap (ADR 0016).
+    assert instance.plan.options.corrector_steps >= 1
 
 
 def _run(instance: TaskInstance) -> PlanOutcome:

@@ -148,6 +148,18 @@ def test_a_grasp_whose_open_finger_comes_down_on_the_block_fails_at_the_grasp() 
     assert _screen_shifted("constrained_packing_t1", pick, 1, 0.006).feasible
 
 
+@pytest.mark.parametrize(("lateral", "refused"), [(0.026, True), (-0.026, True), (0.02, False)])
+def test_a_block_grasped_past_its_edge_along_the_pads_is_refused(lateral: float, refused: bool) -> None:
+    """The reference grasp comes from above with the pads across the block's x: 2.6 cm along
+    them from the centre of a 5 cm block is past its edge; 2 cm is on its face."""
+    pick = _step_of("constrained_packing_t1", "pick")
+    verdict = _screen_shifted("constrained_packing_t1", pick, 0, lateral)
+    assert verdict.feasible is not refused
+    if refused:
+        assert verdict.step == pick
+        assert "past its edge" in verdict.reason
+
+
 def test_missing_actions_are_infeasible_and_wrong_lengths_are_errors() -> None:
     task = "pot_reorientation"
     actions = _reference(task, 0)

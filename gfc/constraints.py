@@ -172,6 +172,19 @@ def palm_clear(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.T
     return torch.relu(-along)
 
 
+def grasp_centred(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
+    """A grasp of a block (pose9 in its frame; the hand's y, the second column, is the fingers'
+    closing axis) holds it near the middle of the pads: the grasp point's offset along the pads
+    (across the closing axis, in the table plane) is at most ``band``; the residual is the
+    excess. (B, 1)"""
+    (grasp,) = nodes
+    closing = grasp[..., 6:8]
+    closing = closing / closing.norm(dim=-1, keepdim=True).clamp_min(1e-9)  # (B, 2)
+    across = torch.stack([-closing[..., 1], closing[..., 0]], dim=-1)  # (B, 2)
+    lateral = (grasp[..., 0:2] * across).sum(-1, keepdim=True)  # (B, 1)
+    return torch.relu(lateral.abs() - float(params["band"]))
+
+
 def grasps_apart(nodes: Sequence[torch.Tensor], params: dict[str, Any]) -> torch.Tensor:
     """Two grasp actions on one object (pose9 in its frame) at least ``distance`` apart: room
     for both hands at a hand-over. (B, 1)"""
@@ -441,6 +454,7 @@ RESIDUALS: dict[str, Residual] = {
     "upright": upright,
     "reach": reach,
     "grasps_apart": grasps_apart,
+    "grasp_centred": grasp_centred,
     "palm_clear": palm_clear,
     "stroke": stroke,
     "apart": apart,

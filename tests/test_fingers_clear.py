@@ -1,6 +1,7 @@
 """The ``fingers_clear`` factor: the fingers placing a block keep clear of the neighbours placed
 before it and of the walls. Analytic cases (the 16 mm the screen's mirror measured on the Panda's
-fingers for the same scene) and invariances."""
+fingers for the same scene) and invariances. Also ``grasp_centred``: a block held near the middle of
+the pads."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gfc.constraints import _finger_gap, _fingers, _pose_of, fingers_clear
+from gfc.constraints import _finger_gap, _fingers, _pose_of, fingers_clear, grasp_centred
 from gfc.kinds import FINGER_THICKNESS, FINGER_WIDTH
 from gfc.plan.compiler import FINGER_CLEARANCE
 
@@ -176,3 +177,23 @@ def test_the_batched_gap_equals_the_gap_taken_pair_by_pair(
     batched = _finger_gap(fingers, others, params)
     assert batched.shape == (3, 1)
     assert torch.allclose(batched, _gap_pair_by_pair(fingers, others, params), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("lateral", "along_closing", "yaw_deg", "expected"),
+    [
+        (0.0, 0.0, 0.0, 0.0),  # centred
+        (0.008, 0.02, 0.0, 0.0),  # within the band; off centre along the closing axis is free
+        (0.02, 0.0, 0.0, 0.01),  # 1 cm beyond the 1 cm band
+        (-0.025, 0.0, 30.0, 0.015),  # the hand turned: the offset is measured along its pads
+    ],
+)
+def test_grasp_centred_measures_the_offset_along_the_pads(
+    lateral: float, along_closing: float, yaw_deg: float, expected: float
+) -> None:
+    """The grasp point's offset across the fingers' closing axis (the hand's y), less the band."""
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    across, closing = np.array([c, s]), np.array([-s, c])  # the hand's x and y on the table
+    point = lateral * across + along_closing * closing
+    grasp = _pose9(float(point[0]), float(point[1]), yaw_deg, z=0.03, down=True)
+    assert float(grasp_centred([grasp], {"band": 0.01})) == _approx(expected)

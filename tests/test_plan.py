@@ -522,7 +522,8 @@ def test_apart_needs_two_objects_and_reads_their_footprints() -> None:
 
 def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
     """Objects placed on one target and left there: each later place action keeps clear of
-    theirs, and so do the fingers placing it, of theirs and of the walls (``fingers_clear``, with its grasp), and a block
+    theirs, and so do the fingers placing it, of theirs and of the walls (``fingers_clear``, with its grasp), each block
+    is grasped near the middle of the pads (``grasp_centred``, on the pick), and a block
     placed into a box is released inside its walls (factors on the place actions, poses in the
     target's frame). A hammer, too long to fit the box at any yaw,
     gets no ``placed_inside``; an object picked up again stops counting."""
@@ -532,7 +533,7 @@ def test_placements_on_one_target_keep_apart_and_inside_its_walls() -> None:
     implied = [(f.type, f.actions) for f in graph.spatial if f.source == "implied" and f.type != "reach"]
     expected = []
     for k, (pick, place) in enumerate(zip(picks, places, strict=True)):
-        expected += [("placed_inside", (place,)), ("placed_reach", (place,))]
+        expected += [("grasp_centred", (pick,)), ("placed_inside", (place,)), ("placed_reach", (place,))]
         expected += [("apart", (earlier, place)) for earlier in places[:k]]
         expected += [("fingers_clear", (place, pick, *places[:k]))]
     assert implied == expected

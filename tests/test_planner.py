@@ -151,6 +151,7 @@ def test_plan_candidates_are_ranked_and_complete(hammer_nail: tuple[CompiledPlan
         "placed_inside",
         "placed_reach",
         "fingers_clear",
+        "grasp_centred",
     }
     again = plan_candidates(plan, library, options)  # type: ignore[arg-type]
     assert again.candidates[0]["steps"] == first["steps"]  # same seed, same plan

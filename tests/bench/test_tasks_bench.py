@@ -81,10 +81,10 @@ def test_linear_chain_drops_only_the_spatial_factors() -> None:
     chain = chain_only(compiled)
     assert chain.temporal == compiled.temporal and chain.nodes == compiled.nodes
     # Implied factors are physics and skill preconditions, not the user's: the chain keeps them
-    # (hands and the hammer's release within reach, the hand-over's grasps apart) and drops the
-    # goal.
+    # (hands and the hammer's release within reach, the hand-over's grasps apart, the cube
+    # grasped near the middle of the pads) and drops the goal.
     assert {f.source for f in chain.spatial} == {"implied"}
-    assert {f.type for f in chain.spatial} == {"reach", "grasps_apart", "placed_reach"}
+    assert {f.type for f in chain.spatial} == {"reach", "grasps_apart", "placed_reach", "grasp_centred"}
     assert {f.type for f in compiled.spatial} - {f.type for f in chain.spatial} == {"inside"}
     pour = compile_plan(sample_task("pour_cup", 0).plan)
     kept = chain_only(pour).spatial

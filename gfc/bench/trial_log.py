@@ -94,7 +94,14 @@ def trial_from_json(data: Mapping[str, Any]) -> Trial:
 
 # Code that decides how a trial turns out: everything in gfc except the command line and the
 # benchmark's own reporting and bookkeeping. A change there makes old trials incomparable.
-_NOT_OUTCOME_CODE = ("cli/", "bench/report.py", "bench/trial_log.py", "bench/latency.py", "data/")
+_NOT_OUTCOME_CODE = (
+    "cli/",
+    "bench/report.py",
+    "bench/trial_log.py",
+    "bench/latency.py",
+    "bench/standing.py",
+    "data/",
+)
 
 
 def code_fingerprint(root: Path | None = None) -> str:

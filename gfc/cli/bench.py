@@ -298,3 +298,47 @@ def tasks(
             )
     console.print(table)
     console.print(f"wrote {out}" + (f", {json_file}" if json_file else "") + f", {plot_path}")
+
+
+@bench_app.command()
+def standing(
+    logs: Annotated[
+        list[Path],
+        typer.Argument(help="trial logs (from `gfc bench tasks --log`), oldest first", show_default=False),
+    ],
+    trials: Annotated[int, typer.Option(min=1, help="trials a complete row has")] = 100,
+    into: Annotated[
+        Path | None,
+        typer.Option(
+            help="replace the standing block of this markdown file (between the markers "
+            "`<!-- standing:start ...-->` and `<!-- standing:end -->`) with the table"
+        ),
+    ] = None,
+) -> None:
+    """Where every task's row stands: per task the log with the most GFC trials, every method's
+    top-1 from that one log, the paper and our goal, and whether the log was made by this code.
+
+    Runs nothing; reads the logs. Example, the table at the top of docs/results.md:
+    `gfc bench standing docs/bench/trials/*.jsonl --into docs/results.md`.
+    """
+    from gfc.bench.standing import read_log, replace_block, select_standing, standing_markdown
+    from gfc.bench.trial_log import code_fingerprint
+
+    console = Console()
+    try:
+        standings = select_standing([read_log(p) for p in logs], trials)
+        table = standing_markdown(standings, trials, code_fingerprint(), root=Path.cwd())
+        if into is not None:
+            try:
+                text = into.read_text(encoding="utf-8")
+            except OSError as exc:
+                raise ValueError(f"{into}: cannot read it ({exc.strerror})") from None
+            command = "gfc bench standing " + " ".join(shlex.quote(p.as_posix()) for p in logs)
+            if trials != 100:
+                command += f" --trials {trials}"
+            block = f"Made by `{command} --into {shlex.quote(into.as_posix())}`.\n\n{table}"
+            into.write_text(replace_block(text, block, where=str(into)), encoding="utf-8")
+    except ValueError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
+    sys.stdout.write(table)  # plain: a markdown table must not be wrapped to the terminal

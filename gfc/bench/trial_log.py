@@ -100,6 +100,7 @@ _NOT_OUTCOME_CODE = (
     "bench/trial_log.py",
     "bench/latency.py",
     "bench/standing.py",
+    "bench/parallel.py",
     "data/",
 )
 

@@ -170,6 +170,15 @@ def tasks(
             "per task and method; each row says how many it has)",
         ),
     ] = False,
+    plan_in_workers: Annotated[
+        bool,
+        typer.Option(
+            "--plan-in-workers/--plan-here",
+            help="each simulator process plans and executes whole trials, so every core plans "
+            "(the default; the same trials); --plan-here plans in this process while the pool "
+            "executes (gfc/bench/parallel.py says why)",
+        ),
+    ] = True,
     pipeline: Annotated[
         bool,
         typer.Option(
@@ -186,6 +195,7 @@ def tasks(
     from rich.table import Table
 
     from gfc.bench.methods import METHODS, MissingModelsError, PlanSettings, needs_models
+    from gfc.bench.parallel import LibrarySpec, run_benchmark_in_workers
     from gfc.bench.report import failure_reasons_markdown, plot_top1, render_key_frames, results_markdown
     from gfc.bench.tasks import random_weights_library, run_benchmark, summarise
     from gfc.bench.trial_log import TrialLog, log_header
@@ -198,16 +208,17 @@ def tasks(
     names = _names(task_names) or list(ALL_TASKS)
     methods = _names(method_names) or list(METHODS)
     library: SkillLibrary | None
+    spec: LibrarySpec | None = None  # the same models, described for the workers
     if not any(needs_models(m) for m in methods):
         library, source = None, "skill models: none (these methods use none)"
     elif random_weights:
-        library = random_weights_library(names)
+        library, spec = random_weights_library(names), LibrarySpec(random_for=tuple(names))
         source = "skill models: **random weights** (a plumbing check: these success rates mean nothing)"
     else:
         from skill_store import DEFAULT_LIBRARY, SkillStore, StoreLibrary
 
         store = SkillStore(skills or DEFAULT_LIBRARY)
-        library = StoreLibrary(store)
+        library, spec = StoreLibrary(store), LibrarySpec(store=str(store.location))
         source = f"skill models: the skill store at `{store.location}` (latest version of each)"
     settings = PlanSettings(candidates=candidates, steps=steps, screen=screen)
     total = 2 * len(names) * len(methods) * trials
@@ -224,19 +235,33 @@ def tasks(
             console.print(f"trial log {log}: {len(trial_log)} trials recorded")
         with Progress(console=console, transient=True) as progress:
             bar = progress.add_task("starting", total=total)
-            result = run_benchmark(
-                names,
-                methods,
-                trials,
-                library,
-                pool,
-                settings,
-                seed=seed,
-                on_progress=phase_logger(progress, bar, console),
-                log=trial_log,
-                execute=not report_only,
-                pipeline=pipeline,
-            )
+            if plan_in_workers and not report_only:
+                result = run_benchmark_in_workers(
+                    names,
+                    methods,
+                    trials,
+                    spec,
+                    pool,
+                    settings,
+                    threads=threads,
+                    seed=seed,
+                    on_progress=phase_logger(progress, bar, console),
+                    log=trial_log,
+                )
+            else:
+                result = run_benchmark(
+                    names,
+                    methods,
+                    trials,
+                    library,
+                    pool,
+                    settings,
+                    seed=seed,
+                    on_progress=phase_logger(progress, bar, console),
+                    log=trial_log,
+                    execute=not report_only,
+                    pipeline=pipeline,
+                )
     except (MissingModelsError, KeyError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(2) from None

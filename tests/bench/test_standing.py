@@ -85,7 +85,9 @@ def test_a_complete_row_says_whether_it_meets_the_goal_and_beats_every_baseline(
     pour_cells = [c.strip() for c in pour.strip("|").split("|")]
     assert pour_cells[3] == "not run" and pour_cells[5] == "0 % (3 trials)"
     assert pour_cells[9] == "baselines incomplete"
-    assert table.startswith("2 tasks with trials; 1 with every method at 10 trials; 2 made by this checkout's code")
+    assert table.startswith(
+        "2 tasks with trials; 1 with every method at 10 trials; 2 made by this checkout's code"
+    )
     other = standing_markdown(select_standing([read_log(log)], 10), 10, current_code="other")
     assert "no (`same`)" in other and "0 made by this checkout's code" in other
 

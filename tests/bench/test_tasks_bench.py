@@ -254,7 +254,7 @@ def test_ci_sized_run_writes_report_json_plot_and_frames(tmp_path: Path) -> None
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     # Not a terminal: the bar does not show, so each phase is logged as a line instead.
-    assert f"{TASK}: executing (" in result.output and "units done)" in result.output
+    assert f"{TASK}: planning and executing (" in result.output and "units done)" in result.output
 
     summary = json.loads(data.read_text())
     assert set(summary) == {"tasks"}

@@ -27,21 +27,20 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from gfc.bench.methods import METHODS, ORACLES, Method, PlanSettings, make_method, needs_models
+from gfc.bench.methods import Method, PlanSettings, make_method, needs_models
 from gfc.bench.tasks import (
-    ANY_K,
     BenchResult,
     Progress,
     Trial,
     TrialRecord,
     as_execution,
-    check_library,
     execute_trial,
     random_weights_library,
+    run_benchmark,
 )
 from gfc.planner.library import SkillLibrary
 from gfc.pool import Pool
-from gfc.tasks import ALL_TASKS, sample_task
+from gfc.tasks import sample_task
 
 
 @dataclass(frozen=True)
@@ -122,24 +121,17 @@ def run_benchmark_in_workers(
     """``run_benchmark``'s trials (same scenes, seeds, settings, log and progress units), each
     planned and executed by a pool worker. A chunk's trials are appended to the log once the
     chunk is done, so an interrupted run loses at most one chunk."""
-    unknown = [t for t in tasks if t not in ALL_TASKS]
-    if unknown:
-        raise KeyError(f"unknown tasks {unknown} (known: {', '.join(sorted(ALL_TASKS))})")
-    bad = [m for m in methods if m not in METHODS + ORACLES]
-    if bad:
-        raise KeyError(f"unknown methods {bad} (known: {', '.join(METHODS + ORACLES)})")
-    if settings.candidates < ANY_K:
-        raise ValueError(f"any-{ANY_K} needs at least {ANY_K} candidates, got {settings.candidates}")
-    if any(needs_models(m) for m in methods):
-        # Fail before any work, naming every missing model (the workers would fail one by one).
-        check_library(tasks, methods, None if library is None else library.load())
     report = on_progress or (lambda _msg, _n: None)
+    # run_benchmark without executing: refuses bad input (unknown tasks or methods, too few
+    # candidates, missing models, all named) before any work, and takes the trials the log holds.
+    models = library.load() if library is not None and any(needs_models(m) for m in methods) else None
+    logged = run_benchmark(
+        tasks, methods, trials, models, pool, settings, seed=seed, on_progress=report, log=log, execute=False
+    )
+    done = {(t.task, t.method, t.seed): t for t in logged.trials}
     result = BenchResult(list(tasks), list(methods))
     for task in tasks:
         keys = [(task, method, seed + i) for method in methods for i in range(trials)]
-        done = {k: t for k in keys if log is not None and (t := log.get(k)) is not None}
-        if done:
-            report(f"{task}: {len(done)} trials from the log", 2 * len(done))
         todo = [k for k in keys if k not in done]
         for start in range(0, len(todo), chunk):
             part = todo[start : start + chunk]

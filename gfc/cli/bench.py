@@ -343,8 +343,10 @@ def standing(
     """Where every task's row stands: per task the log with the most GFC trials, every method's
     top-1 from that one log, the paper and our goal, and whether the log was made by this code.
 
-    Runs nothing; reads the logs. Example, the table at the top of docs/results.md:
-    `gfc bench standing docs/bench/trials/*.jsonl --into docs/results.md`.
+    Runs nothing; reads the logs. Name them oldest first (a shell glob sorts by name, not by
+    age); the command under the table at the top of docs/results.md lists the project's logs
+    in order, e.g. `gfc bench standing docs/bench/trials/single_arm_s24.jsonl
+    docs/bench/trials/packing_s26.jsonl --into docs/results.md`.
     """
     from gfc.bench.standing import read_log, replace_block, select_standing, standing_markdown
     from gfc.bench.trial_log import code_fingerprint

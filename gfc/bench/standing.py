@@ -39,6 +39,7 @@ class MethodTally:
 class LogContents:
     path: Path
     code: str  # the header's code fingerprint
+    candidates: int | None  # the header's candidates sampled per trial (None: not recorded)
     tallies: dict[str, dict[str, MethodTally]]  # task -> method -> tally
 
 
@@ -76,7 +77,11 @@ def read_log(path: Path) -> LogContents:
         task: {method: MethodTally(*row) for method, row in methods.items()}
         for task, methods in counts.items()
     }
-    return LogContents(path, str(header.get("code", "")), tallies)
+    settings = header.get("settings")
+    candidates = settings.get("candidates") if isinstance(settings, dict) else None
+    return LogContents(
+        path, str(header.get("code", "")), candidates if isinstance(candidates, int) else None, tallies
+    )
 
 
 def select_standing(logs: Sequence[LogContents], target_trials: int) -> list[TaskStanding]:
@@ -136,9 +141,9 @@ def standing_markdown(
 
     header = (
         "| task | GFC top-1 (95 % interval) | any-5 | linear chain | independent | random "
-        "| paper GFC | goal | goal met | GFC above every baseline | log | made by this code |"
+        "| paper GFC | goal | goal met | GFC above every baseline | candidates | log | made by this code |"
     )
-    lines = [header, "| " + " | ".join(["---"] * 12) + " |"]
+    lines = [header, "| " + " | ".join(["---"] * 13) + " |"]
     complete = current = 0
     for standing in standings:
         gfc = standing.methods["gfc"]
@@ -161,6 +166,7 @@ def standing_markdown(
                     "" if bar is None else f"{100 * bar.goal:.0f} %",
                     goal_verdict,
                     baseline_verdict,
+                    "?" if standing.log.candidates is None else str(standing.log.candidates),
                     f"`{shown(standing.log.path)}`",
                     "yes" if is_current else f"no (`{standing.log.code}`)",
                 ]
@@ -172,7 +178,7 @@ def standing_markdown(
             bar = BARS[task]
             lines.append(
                 f"| {task} | not run | | | | | {100 * bar.paper_gfc:.0f} % | {100 * bar.goal:.0f} % "
-                "| not run | | | |"
+                "| not run | | | | |"
             )
     summary = (
         f"{len(standings)} tasks with trials; {complete} with every method at {target_trials} trials; "

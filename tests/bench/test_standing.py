@@ -21,9 +21,12 @@ from gfc.bench.trial_log import FORMAT, trial_to_json
 from gfc.cli.app import app
 
 
-def write_log(path: Path, code: str, rows: dict[tuple[str, str], tuple[int, int]], torn: str = "") -> Path:
+def write_log(
+    path: Path, code: str, rows: dict[tuple[str, str], tuple[int, int]], torn: str = "", candidates: int = 32
+) -> Path:
     """A trial log whose (task, method) has ``trials`` trials, the first ``successes`` of which succeed."""
-    lines = [json.dumps({"format": FORMAT, "settings": {}, "code": code, "models": {}})]
+    header = {"format": FORMAT, "settings": {"candidates": candidates}, "code": code, "models": {}}
+    lines = [json.dumps(header)]
     for (task, method), (trials, successes) in rows.items():
         for seed in range(trials):
             ok = seed < successes
@@ -38,7 +41,7 @@ def test_read_log_tallies_by_task_and_method_and_ignores_a_torn_last_line(tmp_pa
     contents = read_log(log)
     tally = contents.tallies["hammer_place"]["gfc"]
     assert (tally.trials, tally.top1, tally.any5) == (4, 3, 4)
-    assert contents.code == "abc"
+    assert contents.code == "abc" and contents.candidates == 32
 
 
 def test_read_log_refuses_a_file_that_is_not_a_trial_log(tmp_path: Path) -> None:
@@ -80,7 +83,8 @@ def test_a_complete_row_says_whether_it_meets_the_goal_and_beats_every_baseline(
     assert cells[1].startswith("90 %") and cells[3] == "90 %" and cells[4] == "20 %"
     assert cells[8] == "met"  # 90 % against a goal of 90 %
     assert cells[9] == "**no**"  # a tie with the linear chain is not above it
-    assert cells[11] == "yes"
+    assert cells[10] == "32"  # candidates per trial, from the log's header
+    assert cells[12] == "yes"
     pour = next(line for line in table.splitlines() if line.startswith("| pour_cup"))
     pour_cells = [c.strip() for c in pour.strip("|").split("|")]
     assert pour_cells[3] == "not run" and pour_cells[5] == "0 % (3 trials)"

@@ -275,15 +275,25 @@ class Screen:
         obj: str,
         action: FloatArray,
         approach_from: Callable[[FloatArray], FloatArray],
+        past_arms: bool = False,
     ) -> FloatArray:
         """Screen a grasp of ``obj`` (``action``: the grasp in the object's frame): the pose the
         approach starts from (collision-checked), the grasp (IK only: the approach may touch),
-        the fingers closing on it. Returns the grasp's world pose."""
+        the fingers closing on it. Returns the grasp's world pose. ``past_arms``: the approach
+        must also keep clear of the other arms (a hand-over, as the executor's regrasp)."""
         self._grasp_on_face(i, robot, obj, pose9_to_matrix(action))
         grasp = state.poses[obj] @ pose9_to_matrix(action)
         # As the executor (``reach`` with ``follow``): the pre-grasp solution must be one from
         # which the straight approach to the grasp can be tracked.
-        self._reach(state, i, robot, approach_from(grasp), f"the pre-grasp of {obj}", follow=[grasp])
+        self._reach(
+            state,
+            i,
+            robot,
+            approach_from(grasp),
+            f"the pre-grasp of {obj}",
+            follow=[grasp],
+            past_arms=past_arms,
+        )
         # The straight approach ends touching the object (allowed), and nothing else: a hand that
         # meets a fixture there (the rack's bar over a block in front of it) knocks the object
         # away on its way down (type 3, half of Rearrangement Push T2's top-1 failures).
@@ -427,7 +437,9 @@ class Screen:
         assert giver is not None
         self._require_holding(state, i, giver, obj)
         receiver = step.robot
-        grasp = self._grasp(state, i, receiver, obj, action, lambda g: backed_off(g, APPROACH))
+        grasp = self._grasp(
+            state, i, receiver, obj, action, lambda g: backed_off(g, APPROACH), past_arms=True
+        )
         state.held[receiver] = (obj, invert(grasp) @ state.poses[obj])
         del state.held[giver]
 
@@ -560,6 +572,7 @@ class Screen:
         follow: Sequence[FloatArray] = (),
         allow: Sequence[str] = (),
         held_only: bool = False,
+        past_arms: bool = False,
     ) -> None:
         """Find an IK solution for ``robot`` (others where they are) or raise; with ``collide``,
         one that collides with nothing. The executors check collisions only where they plan a
@@ -576,7 +589,14 @@ class Screen:
             p = world_from_ee[:3, 3]
             raise _Infeasible(i, f"{robot}: out of reach for {what} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})")
         check = self._collision_check(state, robot, ignore_others, allow, held_only)
-        self_check = self_collision_fn(self.world, robot)
+        # The lines that follow may touch the scene, not the arm itself, nor (``past_arms``) the
+        # other arms: the executor's regrasp asks the same (``clear_of_other_arms``).
+        everything = [*mirror.objects, "table"]
+        self_check = (
+            self._collision_check(state, robot, allow=everything)
+            if past_arms
+            else self_collision_fn(self.world, robot)
+        )
         aimed = aimed_home(mirror.robots[robot].world_from_base, world_from_ee)
         # Seeded first: the current joints, home aimed at the target, home, and the latest
         # solutions found for this arm (candidates of one plan ask for similar poses, and side

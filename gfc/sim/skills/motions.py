@@ -33,7 +33,15 @@ from gfc.sim.control import (
 from gfc.sim.ik import solve_ik
 from gfc.sim.motion import plan_motion
 from gfc.sim.outcome import FailureType, SkillFailure
-from gfc.sim.panda import HOME_JOINTS, LOWER_LIMITS, UPPER_LIMITS, arm_joints, ee_matrix, set_joints
+from gfc.sim.panda import (
+    FINGER_MAX,
+    HOME_JOINTS,
+    LOWER_LIMITS,
+    UPPER_LIMITS,
+    arm_joints,
+    ee_matrix,
+    set_joints,
+)
 from gfc.sim.world import World, gripper_openings, object_matrix, sync_mirror
 from gfc.skills.signatures import PICK_LIFT
 
@@ -98,6 +106,17 @@ def collision_fn(
     return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright, clearance)
 
 
+def clear_of_other_arms(ctx: SkillContext, robot: str) -> CollisionFn:
+    """A test of ``robot``'s joints (open hand) against its own links and the other arms only:
+    objects and the table may be touched. For a hand-over's approach, which ends touching the
+    object the other hand holds and must not sweep the arm through the giver's."""
+    sync_mirror(ctx.world)
+    touchable = [*ctx.world.physics.objects, "table"]
+    return make_collision_fn(
+        ctx.world, [robot], (), {robot: 2 * FINGER_MAX}, frozenset((robot, n) for n in touchable)
+    )
+
+
 def upright_limit(world_from_object: FloatArray) -> float:
     """How far (rad) a carried container may tilt: ``UPRIGHT_TILT``, or a little more than it
     leans now (a grasp can leave it leaning, and the motion must be able to start)."""
@@ -127,6 +146,7 @@ def free_ik(
     check: CollisionFn,
     what: str,
     follow: Sequence[FloatArray] = (),
+    line_guard: CollisionFn | None = None,
 ) -> FloatArray:
     """A collision-free IK solution, or type 1 (none exists) / type 2 (all of them collide).
 
@@ -134,7 +154,7 @@ def free_ik(
     the one farthest from the joint limits wins: a straight lift or a pour that follows must not
     start at a limit.
     """
-    return free_ik_solutions(ctx, robot, world_from_ee, check, what, follow)[0]
+    return free_ik_solutions(ctx, robot, world_from_ee, check, what, follow, line_guard)[0]
 
 
 def free_ik_solutions(
@@ -144,9 +164,12 @@ def free_ik_solutions(
     check: CollisionFn,
     what: str,
     follow: Sequence[FloatArray] = (),
+    line_guard: CollisionFn | None = None,
 ) -> list[FloatArray]:
     """Up to ``IK_CANDIDATES`` collision-free IK solutions, farthest from the joint limits first;
-    raises as ``free_ik`` when there is none."""
+    raises as ``free_ik`` when there is none. ``line_guard``: the collision test the straight
+    lines to ``follow`` must pass instead of the arm's own links alone (it must test those too,
+    as ``clear_of_other_arms`` does)."""
     current = joints(ctx, robot)
     seeds = [
         current,
@@ -158,7 +181,7 @@ def free_ik_solutions(
     dead_ends = 0
     # The straight lines that follow may touch the scene, never fold the arm into itself (a
     # long pull's end did, links 0 and 4, on a branch another start tracks cleanly).
-    self_check = self_collision_fn(ctx.world, robot)
+    self_check = self_collision_fn(ctx.world, robot) if line_guard is None else line_guard
 
     def consider(q: FloatArray | None) -> None:
         nonlocal dead_ends
@@ -234,14 +257,15 @@ def reach(
     world_from_ee: FloatArray,
     what: str,
     follow: Sequence[FloatArray] = (),
+    line_guard: CollisionFn | None = None,
 ) -> None:
     """Plan a collision-free joint path to the pose (with what the robot holds) and execute it.
 
     ``follow``: end-effector poses the robot will then reach in straight lines; the goal
-    configuration is chosen so that it can.
+    configuration is chosen so that it can (``line_guard``: as ``free_ik_solutions``).
     """
     check = collision_fn(ctx, [robot])
-    goal = free_ik(ctx, robot, world_from_ee, check, what, follow)
+    goal = free_ik(ctx, robot, world_from_ee, check, what, follow, line_guard)
     start = joints(ctx, robot)
     # What the hand carries keeps CARRIED_CLEARANCE from everything on the way, where both ends
     # of the motion allow it (a pour's meeting or a hand-over ends closer: planned as before).

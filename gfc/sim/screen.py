@@ -505,7 +505,8 @@ class Screen:
         kinds = [object_kind(self.world.mirror.objects[n].kind) for n in (tool, target)]
         try:
             if step.skill == "strike":
-                aim_strike(kinds[0], state.poses[tool], kinds[1], state.poses[target], target)
+                strike = aim_strike(kinds[0], state.poses[tool], kinds[1], state.poses[target], target)
+                self._blow_clear(state, i, step.robot, target, strike.gap)
             else:
                 aim = aim_pour(kinds[0], state.poses[tool], kinds[1], state.poses[target], tool, target)
                 palm_clear(aim, self._hand_of(state, step.robot), tool, target)
@@ -515,6 +516,19 @@ class Screen:
             poses = tipping_poses(aim, self._hand_of(state, step.robot), kinds[0].frames["rim"][2])
             if not self._can_follow(state, step.robot, poses):
                 raise _Infeasible(i, f"{step.robot} cannot tip {tool} over {target} from any IK branch")
+
+    def _blow_clear(self, state: _State, i: int, robot: str, target: str, gap: float) -> None:
+        """The blow (the hand straight down, as the executor's ``strike``) may meet nothing
+        before the head's face reaches the target's top: the hand holding a nail up reaches
+        above the nail's top, and the hammer's 10 cm wide head came down on it in all 4 traced
+        "blow missed the nail" failures of Hammer Nail (ADR 0017), the nail pushed down in the
+        hand and never touched. Past the top the head stops on the nail; the executor drives the
+        hand on (BLOW_DEPTH) only to press it there."""
+        hand = self._hand_of(state, robot)
+        blow = [hand, translated(hand, [0.0, 0.0, -gap])]
+        guard = self._collision_check(state, robot, allow=(target,))
+        if not tracks_lines(self.world, robot, state.joints[robot], blow, self.rng, guard):
+            raise _Infeasible(i, f"{robot}: the blow would meet something besides the {target}")
 
     def _can_follow(self, state: _State, robot: str, poses: list[FloatArray]) -> bool:
         """Whether the arm can track ``poses`` (from the first) on one IK branch that is free of

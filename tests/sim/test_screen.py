@@ -379,3 +379,14 @@ def test_the_pull_the_screen_rejects_does_not_move_the_block_in_the_simulator() 
     pull = outcome.steps[_step_of("hook_reach_t2", "pull")]
     assert not pull.success
     assert "did not move the block" in pull.reason
+
+
+def test_a_blow_that_would_come_down_on_the_hand_holding_the_nail_is_refused() -> None:
+    """The reference holds the nail low (4.5 cm up its 8 cm); held 3 cm higher, the hand reaches
+    above the nail's top and the hammer's head would land on it before the nail (the "blow
+    missed the nail" failures of ADR 0017)."""
+    pick_nail = _step_of("hammer_nail", "pick", "nail")
+    verdict = _screen_shifted("hammer_nail", pick_nail, 2, 0.03)
+    assert not verdict.feasible
+    assert verdict.step == _step_of("hammer_nail", "strike")
+    assert "the blow would meet something besides the nail" in verdict.reason

@@ -35,6 +35,7 @@ STRIKE_XY_TOLERANCE = 0.02  # m between the striking face's centre and the nail 
 STRIKE_MAX_GAP = 0.10  # m: a swing longer than this is not a strike
 STRIKE_TILT = math.radians(25.0)  # striking faces must face down within this
 STRIKE_TOUCH = 0.001  # m: a head this close to the target after the blow rests on it
+BLOW_DEPTH = 0.015  # m below the target's top that the blow drives the head's face
 POUR_UPRIGHT = math.radians(POUR_UPRIGHT_DEG)
 POUR_ANGLE = math.radians(125.0)
 POUR_LIP_FRACTION = 0.7  # lip within this fraction of the target's inner radius from its centre
@@ -102,9 +103,9 @@ def strike(ctx: SkillContext, step: Step, action: FloatArray) -> str:
         target,
     )
     offset, gap = aim.offset, aim.gap
-    straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, -(gap + 0.015)]), "the blow", speed=1.5)
+    straight(ctx, robot, translated(ee(ctx, robot), [0.0, 0.0, -(gap + BLOW_DEPTH)]), "the blow", speed=1.5)
     physics_step(world, 10)
-    # Where the blow ends the head rests on the target (it was driven 1.5 cm below the top). Asked
+    # Where the blow ends the head rests on the target (it was driven BLOW_DEPTH below the top). Asked
     # of the geometry, not of Bullet's contact cache: with fresh contacts (ADR 0015) a head resting
     # 0.3 mm into the nail's top had no cached point (Hammer Nail seed 12).
     touching = pb.getClosestPoints(

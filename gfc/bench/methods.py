@@ -39,6 +39,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 
@@ -80,6 +81,7 @@ class MethodPlan:
     # None when they were not screened. 0: every candidate was refused, and the ones executed
     # are the method's own best, unscreened (a fallback).
     passed_screen: int | None = None
+    rounds: int = 1  # sampling rounds drawn (PlanSettings.rounds); passed_screen counts the last
 
 
 @dataclass(frozen=True)
@@ -89,6 +91,11 @@ class PlanSettings:
     # Kinematic screening (gfc.sim.screen): candidates whose poses the arms cannot reach go to
     # the back of the ranking. Applied to every method alike (not the reference oracle).
     screen: bool = True
+    # Sampling rounds: while no candidate drawn so far passed the screen, the method draws
+    # ``candidates`` more (a fresh seed), up to this many rounds in all; 1: one draw. Session 29:
+    # in 18 of 80 Hammer Nail scenes none of 128 GFC candidates passed, and 8 of 8 such scenes
+    # probed had one within two more rounds of 128.
+    rounds: int = 1
 
 
 SCREEN_KEEP = 5  # screening stops once this many candidates have passed (any-5 runs five)
@@ -169,18 +176,32 @@ def candidate_actions(result: PlanResult, n_steps: int) -> list[Actions]:
     return out
 
 
-Method = Callable[[TaskInstance, PlanSettings], MethodPlan]
+class Method(Protocol):
+    """A planner: ranked candidates for a task instance. ``batch`` numbers the draw (sampling
+    round): each batch draws from its own random stream, batch 0 from the plan's own seed."""
+
+    def __call__(self, instance: TaskInstance, settings: PlanSettings, batch: int = 0) -> MethodPlan: ...
+
+
+def batch_seed(seed: int, batch: int) -> int:
+    """The sampler seed of draw ``batch`` of a plan seeded ``seed``: batch 0 is the plan's own
+    seed, so one round draws exactly what the planner draws alone; a later batch a seed mixed from
+    both (torch seeds its CPU generator from the low 32 bits only, so an offset of 2**32, tried
+    first, drew the very same candidates again)."""
+    if batch == 0:
+        return seed
+    return int(np.random.SeedSequence([seed, batch]).generate_state(1)[0])
 
 
 def _sampled(transform: Callable[[CompiledPlan], CompiledPlan], library: SkillLibrary) -> Method:
-    def plan(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
+    def plan(instance: TaskInstance, settings: PlanSettings, batch: int = 0) -> MethodPlan:
         t0 = time.process_time()
         compiled = transform(compile_plan(instance.plan))
         options = Options(
             candidates=settings.candidates,
             top_k=settings.candidates,
             steps=settings.steps,
-            seed=instance.plan.options.seed,
+            seed=batch_seed(instance.plan.options.seed, batch),
             sampler=instance.plan.options.sampler,
             compensation=instance.plan.options.compensation,
             corrector_steps=instance.plan.options.corrector_steps,
@@ -192,15 +213,16 @@ def _sampled(transform: Callable[[CompiledPlan], CompiledPlan], library: SkillLi
     return plan
 
 
-def _random(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
+def _random(instance: TaskInstance, settings: PlanSettings, batch: int = 0) -> MethodPlan:
     t0 = time.process_time()
-    # Its own stream per instance, apart from the scene's: the same scene gets the same draws.
-    rng = np.random.default_rng([instance.seed, 7])
+    # Its own stream per instance and batch, apart from the scene's: the same scene gets the same
+    # draws (batch 0's stream is the one of logs before batches existed).
+    rng = np.random.default_rng([instance.seed, 7] if batch == 0 else [instance.seed, 7, batch])
     candidates = [random_actions(instance.plan, rng) for _ in range(settings.candidates)]
     return MethodPlan(candidates, time.process_time() - t0)
 
 
-def _reference(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
+def _reference(instance: TaskInstance, settings: PlanSettings, batch: int = 0) -> MethodPlan:
     t0 = time.process_time()
     candidates = [list(instance.reference_actions) for _ in range(settings.candidates)]
     return MethodPlan(candidates, time.process_time() - t0)
@@ -208,17 +230,34 @@ def _reference(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
 
 def screened(method: Method) -> Method:
     """``method`` with its candidates re-ranked by the kinematic screen when settings ask for it:
-    those that pass first, each group in the method's own order. Its time counts as planning."""
+    those that pass first, each group in the method's own order. Its time counts as planning.
 
-    def plan(instance: TaskInstance, settings: PlanSettings) -> MethodPlan:
-        result = method(instance, settings)
+    With ``settings.rounds`` > 1, a draw none of whose candidates passes is followed by another
+    (``batch`` 1, 2, ...) until one passes or the rounds are spent: the passed ones of the last
+    draw first, then the rest of it, then the earlier draws in order. When no draw passes, the
+    first draw's candidates come first, in the method's own order, as with one round."""
+
+    def plan(instance: TaskInstance, settings: PlanSettings, batch: int = 0) -> MethodPlan:
+        result = method(instance, settings, batch)
         if not settings.screen:
             return result
-        t0 = time.process_time()
-        order, verdicts = screen_order(instance.plan, result.candidates, keep=SCREEN_KEEP, seed=instance.seed)
-        candidates = [result.candidates[k] for k in order]
-        passed = sum(v is not None and v.feasible for v in verdicts)
-        return MethodPlan(candidates, result.seconds + time.process_time() - t0, passed)
+        seconds = result.seconds
+        refused: list[Actions] = []  # the earlier draws' candidates, none of which passed
+        for draw in range(settings.rounds):
+            if draw > 0:
+                result = method(instance, settings, batch + draw)
+                seconds += result.seconds
+            t0 = time.process_time()
+            order, verdicts = screen_order(
+                instance.plan, result.candidates, keep=SCREEN_KEEP, seed=instance.seed
+            )
+            seconds += time.process_time() - t0
+            passed = sum(v is not None and v.feasible for v in verdicts)
+            if passed:
+                candidates = [result.candidates[k] for k in order] + refused
+                return MethodPlan(candidates, seconds, passed, draw + 1)
+            refused += result.candidates
+        return MethodPlan(refused, seconds, 0, settings.rounds)
 
     return plan
 

@@ -101,7 +101,14 @@ def plan_and_execute(job: TrialJob) -> Trial:
     work = as_execution(job.task, job.seed, plan)
     outcome = execute_trial(work)
     return Trial(
-        job.task, job.method, job.seed, plan.seconds, outcome, work.candidates[0], plan.passed_screen
+        job.task,
+        job.method,
+        job.seed,
+        plan.seconds,
+        outcome,
+        work.candidates[0],
+        plan.passed_screen,
+        plan.rounds,
     )
 
 

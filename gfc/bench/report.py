@@ -104,17 +104,19 @@ def results_markdown(
         "fresh world. Success: every step succeeds and the goal holds in the simulator afterwards.",
         "",
         "'unscreened': trials where no candidate passed the kinematic screen, so the method's own "
-        "best, unscreened, was executed ('-': the log does not say).",
+        "best, unscreened, was executed; 'redrawn': trials that drew more than one round of candidates "
+        "because none of the first passed the screen (`--rounds`) ('-': the log does not say).",
         "",
-        "| task | method | top-1 | any-5 | trials | unscreened | median planning time (s) |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| task | method | top-1 | any-5 | trials | unscreened | redrawn | median planning time (s) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for task, methods in tasks.items():
         for method, row in methods.items():
-            fallbacks = row.get("screen_fallbacks")
+            fallbacks, redrawn = row.get("screen_fallbacks"), row.get("redrawn")
             lines.append(
                 f"| {task} | {method} | {_pct(row['top1'])} | {_pct(row['any5'])} | {row['trials']} "
-                f"| {'-' if fallbacks is None else fallbacks} | {row['plan_seconds_median']:.3f} |"
+                f"| {'-' if fallbacks is None else fallbacks} | {'-' if redrawn is None else redrawn} "
+                f"| {row['plan_seconds_median']:.3f} |"
             )
     lines += ["", *verdict_markdown(summary)]
     lines += [

@@ -41,6 +41,7 @@ class LogContents:
     code: str  # the header's code fingerprint
     candidates: int | None  # the header's candidates sampled per trial (None: not recorded)
     tallies: dict[str, dict[str, MethodTally]]  # task -> method -> tally
+    rounds: int = 1  # the header's sampling rounds (PlanSettings.rounds; 1 before session 29)
 
 
 @dataclass(frozen=True)
@@ -79,9 +80,21 @@ def read_log(path: Path) -> LogContents:
     }
     settings = header.get("settings")
     candidates = settings.get("candidates") if isinstance(settings, dict) else None
+    rounds = settings.get("rounds", 1) if isinstance(settings, dict) else 1
     return LogContents(
-        path, str(header.get("code", "")), candidates if isinstance(candidates, int) else None, tallies
+        path,
+        str(header.get("code", "")),
+        candidates if isinstance(candidates, int) else None,
+        tallies,
+        rounds if isinstance(rounds, int) else 1,
     )
+
+
+def _candidates_cell(log: LogContents) -> str:
+    """Candidates per draw, and the most draws a trial may take when that is more than one."""
+    if log.candidates is None:
+        return "?"
+    return str(log.candidates) if log.rounds == 1 else f"{log.candidates}, up to {log.rounds} draws"
 
 
 def select_standing(logs: Sequence[LogContents], target_trials: int) -> list[TaskStanding]:
@@ -166,7 +179,7 @@ def standing_markdown(
                     "" if bar is None else f"{100 * bar.goal:.0f} %",
                     goal_verdict,
                     baseline_verdict,
-                    "?" if standing.log.candidates is None else str(standing.log.candidates),
+                    _candidates_cell(standing.log),
                     f"`{shown(standing.log.path)}`",
                     "yes" if is_current else f"no (`{standing.log.code}`)",
                 ]

@@ -90,6 +90,7 @@ class Trial:
     result: ExecutionResult
     top1_actions: tuple[tuple[float, ...] | None, ...]  # kept to re-run it for key frames
     passed_screen: int | None = None  # MethodPlan.passed_screen; None: unscreened or not logged
+    rounds: int | None = None  # MethodPlan.rounds (sampling rounds drawn); None: not logged
 
 
 @dataclass
@@ -239,7 +240,9 @@ def _plan_and_execute(
     def finished(planned: Planned, work: list[Execution], outcomes: list[ExecutionResult]) -> list[Trial]:
         report(f"{task}: executing", len(work))
         return [
-            Trial(task, method, seed, plan.seconds, outcome, item.candidates[0], plan.passed_screen)
+            Trial(
+                task, method, seed, plan.seconds, outcome, item.candidates[0], plan.passed_screen, plan.rounds
+            )
             for (method, seed, plan), item, outcome in zip(planned, work, outcomes, strict=True)
         ]
 
@@ -293,6 +296,7 @@ def summarise(result: BenchResult) -> dict[str, Any]:
             if n == 0:
                 continue  # a report of a partial log: a method not run on this task yet
             screened = [t for t in trials if t.passed_screen is not None]
+            drawn = [t for t in trials if t.rounds is not None]
             tasks[task][method] = {
                 "top1": sum(t.result.top1_success for t in trials) / n,
                 "any5": sum(t.result.any_success for t in trials) / n,
@@ -302,6 +306,9 @@ def summarise(result: BenchResult) -> dict[str, Any]:
                 # Trials whose candidates all failed the screen (their top-1 is the method's own
                 # best, unscreened), of those where the log says; None: it does not say.
                 "screen_fallbacks": sum(t.passed_screen == 0 for t in screened) if screened else None,
+                # Trials that drew more than one round of candidates (PlanSettings.rounds), of
+                # those where the log says; None: it does not say (logs before session 29).
+                "redrawn": sum(t.rounds is not None and t.rounds > 1 for t in drawn) if drawn else None,
             }
         if not tasks[task]:
             del tasks[task]  # a report of a partial log: a task not run yet

@@ -63,6 +63,7 @@ def trial_to_json(trial: Trial) -> dict[str, Any]:
         # the bench run again on that seed failed as logged.
         "top1_actions": [None if a is None else [float(v) for v in a] for a in trial.top1_actions],
         "passed_screen": trial.passed_screen,
+        "rounds": trial.rounds,
     }
 
 
@@ -89,6 +90,8 @@ def trial_from_json(data: Mapping[str, Any]) -> Trial:
         actions,
         # Logs before session 22 do not say.
         None if data.get("passed_screen") is None else int(data["passed_screen"]),
+        # Logs before session 29 do not say.
+        None if data.get("rounds") is None else int(data["rounds"]),
     )
 
 
@@ -140,10 +143,23 @@ def log_header(
     }
 
 
+# Settings added after logs were first written, with the value every earlier log ran at: a header
+# without one means that value (rounds: one draw of candidates per trial, before session 29).
+LATER_SETTINGS: dict[str, Any] = {"rounds": 1}
+
+
+def _with_later_settings(header: Mapping[str, Any]) -> dict[str, Any]:
+    """``header`` with the settings it predates filled in (``LATER_SETTINGS``)."""
+    if "settings" not in header:
+        return dict(header)
+    return {**header, "settings": {**LATER_SETTINGS, **header["settings"]}}
+
+
 def _differences(old: Mapping[str, Any], new: Mapping[str, Any], ignore: Sequence[str] = ()) -> list[str]:
     """What makes two headers' trials incomparable. Models are compared where both name them:
     a run over more tasks may bring more models, but a model at another version may not."""
     out = []
+    old, new = _with_later_settings(old), _with_later_settings(new)
     for key in sorted((set(old) | set(new)) - {"models", *ignore}):
         if old.get(key) != new.get(key):
             out.append(f"{key}: log has {old.get(key)!r}, this run has {new.get(key)!r}")

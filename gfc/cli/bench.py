@@ -152,6 +152,14 @@ def tasks(
             "those whose poses the arms can reach go first",
         ),
     ] = True,
+    rounds: Annotated[
+        int,
+        typer.Option(
+            min=1,
+            help="sampling rounds: while no candidate drawn so far passes the screen, draw --candidates "
+            "more with a fresh seed, up to this many draws in all (every method alike)",
+        ),
+    ] = 1,
     ray: Annotated[
         str | None, typer.Option(help="Ray address for the simulations (default: local processes)")
     ] = None,
@@ -220,7 +228,7 @@ def tasks(
         store = SkillStore(skills or DEFAULT_LIBRARY)
         library, spec = StoreLibrary(store), LibrarySpec(store=str(store.location))
         source = f"skill models: the skill store at `{store.location}` (latest version of each)"
-    settings = PlanSettings(candidates=candidates, steps=steps, screen=screen)
+    settings = PlanSettings(candidates=candidates, steps=steps, screen=screen, rounds=rounds)
     total = 2 * len(names) * len(methods) * trials
     if report_only and log is None:
         console.print("[red]error:[/red] --report-only reads the trials from a log: give it with --log FILE")
@@ -285,6 +293,7 @@ def tasks(
         "kinematic screen: "
         + (
             "on (every method's candidates re-ranked: reachable without collision first; gfc/sim/screen.py)"
+            + (f"; up to {rounds} draws of {candidates} while none passes" if rounds > 1 else "")
             if screen
             else "off (candidates in each method's own order)"
         ),

@@ -22,10 +22,17 @@ from gfc.cli.app import app
 
 
 def write_log(
-    path: Path, code: str, rows: dict[tuple[str, str], tuple[int, int]], torn: str = "", candidates: int = 32
+    path: Path,
+    code: str,
+    rows: dict[tuple[str, str], tuple[int, int]],
+    torn: str = "",
+    candidates: int = 32,
+    rounds: int | None = None,
 ) -> Path:
-    """A trial log whose (task, method) has ``trials`` trials, the first ``successes`` of which succeed."""
-    header = {"format": FORMAT, "settings": {"candidates": candidates}, "code": code, "models": {}}
+    """A trial log whose (task, method) has ``trials`` trials, the first ``successes`` of which
+    succeed; ``rounds`` None: a header from before sampling rounds existed."""
+    settings: dict[str, int] = {"candidates": candidates} | ({} if rounds is None else {"rounds": rounds})
+    header = {"format": FORMAT, "settings": settings, "code": code, "models": {}}
     lines = [json.dumps(header)]
     for (task, method), (trials, successes) in rows.items():
         for seed in range(trials):
@@ -94,6 +101,15 @@ def test_a_complete_row_says_whether_it_meets_the_goal_and_beats_every_baseline(
     )
     other = standing_markdown(select_standing([read_log(log)], 10), 10, current_code="other")
     assert "no (`same`)" in other and "0 made by this checkout's code" in other
+
+
+def test_the_candidates_cell_names_the_draws_when_a_trial_may_draw_again(tmp_path: Path) -> None:
+    rows = {("hammer_nail", "gfc"): (2, 1)}
+    for rounds, cell in ((None, "128"), (1, "128"), (4, "128, up to 4 draws")):
+        log = write_log(tmp_path / f"{rounds}.jsonl", "c", rows, candidates=128, rounds=rounds)
+        table = standing_markdown(select_standing([read_log(log)], 2), 2, current_code="c")
+        line = next(x for x in table.splitlines() if x.startswith("| hammer_nail"))
+        assert [c.strip() for c in line.strip("|").split("|")][10] == cell
 
 
 def test_too_few_gfc_trials_say_so_instead_of_a_verdict(tmp_path: Path) -> None:

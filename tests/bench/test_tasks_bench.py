@@ -42,7 +42,7 @@ from gfc.pool import InlinePool
 from gfc.tasks import sample_task
 
 TASK = "pot_reorientation"
-ENTRY_KEYS = {"top1", "any5", "trials", "plan_seconds_median", "failures", "screen_fallbacks"}
+ENTRY_KEYS = {"top1", "any5", "trials", "plan_seconds_median", "failures", "screen_fallbacks", "redrawn"}
 
 
 def check_failures_add_up(entry: dict[str, object]) -> None:

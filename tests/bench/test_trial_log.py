@@ -53,9 +53,10 @@ finite = st.floats(min_value=-10, max_value=10, allow_nan=False)
         st.none(), st.builds(StepFailure, st.integers(0, 20), st.text(), st.integers(1, 3), st.text())
     ),
     passed=st.one_of(st.none(), st.integers(0, 5)),
+    rounds=st.one_of(st.none(), st.integers(1, 8)),
 )
 def test_a_trial_survives_json_exactly(
-    actions: list[list[float] | None], failure: StepFailure | None, passed: int | None
+    actions: list[list[float] | None], failure: StepFailure | None, passed: int | None, rounds: int | None
 ) -> None:
     trial = Trial(
         TASK,
@@ -65,10 +66,11 @@ def test_a_trial_survives_json_exactly(
         ExecutionResult(False, True, failure, True, 3),
         tuple(None if a is None else tuple(a) for a in actions),
         passed,
+        rounds,
     )
     back = trial_from_json(json.loads(json.dumps(trial_to_json(trial))))
     assert back.result == trial.result and (back.task, back.method, back.seed) == (TASK, "gfc", 7)
-    assert back.passed_screen == passed
+    assert back.passed_screen == passed and back.rounds == rounds
     assert len(back.top1_actions) == len(trial.top1_actions)
     for got, want in zip(back.top1_actions, trial.top1_actions, strict=True):
         assert (got is None) == (want is None)
@@ -108,6 +110,17 @@ def test_a_log_from_other_settings_is_refused_and_left_alone(tmp_path: Path) -> 
     with pytest.raises(TrialLogMismatch, match=r"settings: log has"):
         TrialLog(path, {**HEADER, "settings": {"candidates": 32, "steps": 4}})
     assert path.read_bytes() == before
+
+
+def test_a_log_from_before_rounds_existed_reads_as_one_round(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    TrialLog(path, HEADER).append(a_trial(0))  # its header's settings do not say "rounds"
+    one = {**HEADER, "settings": {**HEADER["settings"], "rounds": 1}}
+    assert len(TrialLog(path, one)) == 1
+    with pytest.raises(
+        TrialLogMismatch, match=r"settings: log has \{.*'rounds': 1.*\}, this run has \{.*'rounds': 4"
+    ):
+        TrialLog(path, {**HEADER, "settings": {**HEADER["settings"], "rounds": 4}})
 
 
 def test_more_models_extend_the_header_and_keep_the_trials(tmp_path: Path) -> None:

@@ -85,6 +85,7 @@ def make_collision_fn(
     allowed: frozenset[tuple[str, str]] = frozenset(),
     upright: Mapping[str, float] | None = None,
     clearance: float = 0.0,
+    hand_clearance: float = 0.0,
 ) -> CollisionFn:
     """A checker for the stacked joint vector of ``robots`` (7 per robot, in that order).
 
@@ -93,8 +94,9 @@ def make_collision_fn(
     (rad) it may reach (a collision with "tilt" beyond it); ``clearance`` (m) the distance a
     carried object must keep from everything it may not touch (a path planned with none skims
     box walls within millimetres, and the executed path, a few millimetres off, catches the
-    carried block on the wall). Returns the first collision found, or ``None`` when the
-    configuration is free.
+    carried block on the wall); ``hand_clearance`` (m) the distance each moving robot's hand and
+    fingers keep from the objects they may not touch (not the table, not what the hand holds).
+    Returns the first collision found, or ``None`` when the configuration is free.
     """
     min_cos = {name: math.cos(tilt) for name, tilt in (upright or {}).items()}
     mirror = world.mirror
@@ -169,6 +171,17 @@ def make_collision_fn(
                     for point in pb.getClosestPoints(body, other_body, clearance, physicsClientId=client):
                         if not touching_allowed(name, other, -1, point[4]):
                             return Collision(name, f"{other} (within {clearance * 100:.0f} cm)")
+        if hand_clearance > 0.0:
+            for r in robots:
+                body = mirror.robots[r].body
+                for other_body, other in static_bodies.items():
+                    if other == "table" or r in holders.get(other, ()):
+                        continue
+                    for point in pb.getClosestPoints(
+                        body, other_body, hand_clearance, physicsClientId=client
+                    ):
+                        if point[3] in HAND_LINKS and not touching_allowed(r, other, point[3], -1):
+                            return Collision(r, f"{other} (the hand within {hand_clearance * 100:.0f} cm)")
         return None
 
     return check

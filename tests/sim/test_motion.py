@@ -170,3 +170,49 @@ def test_the_self_collision_test_sees_the_arm_alone_and_guards_tracked_lines() -
         assert not tracks_lines(
             world, "right", q, [start, lifted], rng, guard=lambda _: Collision("right", "x")
         )
+
+
+def test_the_open_hand_keeps_the_clearance_asked_for_from_objects_not_the_table() -> None:
+    """The left open hand pointing down, one finger over a nail: where its nearest link is
+    within 1 cm of the nail, a hand clearance of 1 cm makes it a collision with the nail; higher
+    up, or without the clearance, it is free. The table never counts (the hand rests its fingers
+    near it at every low grasp), nor does an object the hand carries."""
+    import pybullet as pb
+
+    from gfc.geometry import invert
+    from gfc.sim.collision import Carried
+    from gfc.sim.panda import HAND_LINKS, set_joints
+
+    scene = SCENE.model_dump()
+    scene["objects"] = [{"name": "nail", "kind": "nail", "pose": [0.45, 0.6, TABLE_TOP_Z, 0, 0, 0, 1]}]
+    nail_top = TABLE_TOP_Z + 0.08
+    with build_world(Scene.model_validate(scene)) as world:
+        mirror = world.mirror
+        seen = set()
+        for above in (0.01, 0.015, 0.02, 0.025, 0.03, 0.07):
+            # The fingers open along the hand's y (the world's -y here): one finger over the nail.
+            world_from_ee = frame([0.45, 0.6 + 0.045, nail_top + above], DOWN)
+            q = solve_ik(world, "left", world_from_ee, np.asarray(HOME_JOINTS), np.random.default_rng(0))
+            assert q is not None
+            set_joints(mirror.client, mirror.robots["left"], q, 0.04)
+            points = pb.getClosestPoints(
+                mirror.robots["left"].body, mirror.objects["nail"].body, 0.5, physicsClientId=mirror.client
+            )
+            gap = min(p[8] for p in points if p[3] in HAND_LINKS)
+            assert gap > -0.002  # no collision at all without a clearance
+            assert make_collision_fn(world, ["left"], fingers={"left": 0.08})(q) is None
+            hit = make_collision_fn(world, ["left"], fingers={"left": 0.08}, hand_clearance=0.01)(q)
+            expected = "nail (the hand within 1 cm)" if gap < 0.01 else None
+            assert (hit.other if hit else None) == expected, gap
+            seen.add(expected)
+            # Carried, the nail may be as close as it likes to the hand holding it.
+            world_from_nail = frame([0.45, 0.6, TABLE_TOP_Z], np.eye(3))
+            carried = [Carried("left", "nail", invert(world_from_ee) @ world_from_nail)]
+            held = make_collision_fn(world, ["left"], carried, {"left": 0.08}, hand_clearance=0.01)(q)
+            assert held is None or "nail (the hand" not in held.other
+        assert seen == {"nail (the hand within 1 cm)", None}  # both sides of the margin were tried
+        # Low over the bare table: the table does not count.
+        world_from_ee = frame([0.30, 0.45, TABLE_TOP_Z + 0.02], DOWN)
+        q = solve_ik(world, "left", world_from_ee, np.asarray(HOME_JOINTS), np.random.default_rng(0))
+        assert q is not None
+        assert make_collision_fn(world, ["left"], fingers={"left": 0.08}, hand_clearance=0.01)(q) is None

@@ -53,6 +53,11 @@ LEAN_MARGIN = math.radians(5.0)  # rad a leaning container may tilt further whil
 # a few millimetres off the planned one. Without it, a direct path to above the box sagged to
 # 7 mm over the box's wall and caught the carried block on it (Rearrangement Push T3, seed 4).
 CARRIED_CLEARANCE = 0.01
+# m the open hand keeps from objects on a planned motion (reach). The collision test lets links
+# sink 2 mm into things (resting contact), so a path to the nail's pre-grasp could sweep a
+# finger 1.5 mm into the nail: executed, the finger knocked it 2.5 cm aside and the fingers then
+# closed on nothing (Hammer Nail seeds 21 and 48, docs/bench/trials/bimanual_s28_hammer_nail.jsonl).
+HAND_CLEARANCE = 0.01
 DOWN_COS = math.cos(math.radians(30.0))  # hands this close to straight down count as from above
 # Attempts go on up to this many times IK_ATTEMPTS while nothing is found: free solutions of
 # tight poses (a cup held low in front of the body) are rare among random starts, and the
@@ -92,6 +97,7 @@ def collision_fn(
     robots: Sequence[str],
     allowed: frozenset[tuple[str, str]] = frozenset(),
     clearance: float = 0.0,
+    hand_clearance: float = 0.0,
 ) -> CollisionFn:
     sync_mirror(ctx.world)
     openings = gripper_openings(ctx.world)
@@ -103,7 +109,7 @@ def collision_fn(
         for c in carried
         if ctx.world.contents.get(c.object, 0) > 0
     }
-    return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright, clearance)
+    return make_collision_fn(ctx.world, robots, carried, fingers, allowed, upright, clearance, hand_clearance)
 
 
 def clear_of_other_arms(ctx: SkillContext, robot: str) -> CollisionFn:
@@ -264,16 +270,20 @@ def reach(
     ``follow``: end-effector poses the robot will then reach in straight lines; the goal
     configuration is chosen so that it can (``line_guard``: as ``free_ik_solutions``).
     """
-    check = collision_fn(ctx, [robot])
-    goal = free_ik(ctx, robot, world_from_ee, check, what, follow, line_guard)
+    plain = collision_fn(ctx, [robot])
+    goal = free_ik(ctx, robot, world_from_ee, plain, what, follow, line_guard)
     start = joints(ctx, robot)
-    # What the hand carries keeps CARRIED_CLEARANCE from everything on the way, where both ends
-    # of the motion allow it (a pour's meeting or a hand-over ends closer: planned as before).
-    wide = collision_fn(ctx, [robot], clearance=CARRIED_CLEARANCE) if carried_by(ctx, [robot]) else None
-    if wide is not None and wide(start) is None and wide(goal) is None:
-        check = wide
+    # On the way, the hand keeps HAND_CLEARANCE from objects and what it carries keeps
+    # CARRIED_CLEARANCE from everything, where both ends of the motion allow it (a pour's meeting
+    # or a hand-over ends closer: planned as before), and where a path with those margins exists.
+    carried = CARRIED_CLEARANCE if carried_by(ctx, [robot]) else 0.0
+    wide = collision_fn(ctx, [robot], clearance=carried, hand_clearance=HAND_CLEARANCE)
+    check = wide if wide(start) is None and wide(goal) is None else plain
     result = plan_motion(check, start, goal, ctx.rng)
     ctx.planning_s += result.planning_s
+    if result.path is None and check is wide:
+        result = plan_motion(plain, start, goal, ctx.rng)
+        ctx.planning_s += result.planning_s
     if result.path is None:
         raise SkillFailure(FailureType.PATH, f"{robot}: no collision-free path to {what}: {result.reason}")
     execute_paths(ctx.world, {robot: result.path}, {robot: gripper_target(ctx.world, robot)})

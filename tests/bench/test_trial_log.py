@@ -181,6 +181,23 @@ def test_the_cli_continues_a_run_from_its_log(tmp_path: Path) -> None:
     assert refused.exit_code == 2 and "written by a different run" in " ".join(refused.output.split())
 
 
+@pytest.mark.slow
+def test_the_cli_draws_again_while_nothing_passes_the_screen_and_logs_it(tmp_path: Path) -> None:
+    """Uniform random parameters never pass the kinematic screen of the pot task, so a trial with
+    ``--rounds 3`` draws three times; the log's header and record say so, and the report counts
+    the trial as redrawn."""
+    path, report = tmp_path / "trials.jsonl", tmp_path / "r.md"
+    args = ["bench", "tasks", "--tasks", TASK, "--methods", "random", "--candidates", "5", "--no-frames"]
+    args += ["--processes", "1", "--out", str(report), "--log", str(path), "--trials", "1", "--rounds", "3"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    header, record = (json.loads(line) for line in path.read_text().splitlines())
+    assert header["settings"]["rounds"] == 3
+    assert (record["passed_screen"], record["rounds"]) == (0, 3)
+    assert f"| {TASK} | random | 0% | 0% | 1 | 1 | 1 |" in report.read_text()
+    assert "up to 3 draws of 5" in report.read_text()
+
+
 def test_the_code_fingerprint_follows_outcome_code_only(tmp_path: Path) -> None:
     from gfc.bench.trial_log import code_fingerprint
 
